@@ -1,0 +1,16 @@
+"""Observables of the Fourier contour model: arrays in, arrays out.
+
+Modules
+-------
+msd        drift-subtracted, window-averaged mean squared displacement (freud.msd)
+diffusion  long-time diffusion coefficient D_s, D0 = v0^2 / (2 Dr) and D_eff = D_s / D0
+shapes     shape index q per cell and frame, its mean and histogram
+voronoi    periodic Voronoi neighbours (freud), defect cells, defect clusters
+order      hexatic order psi6, |Psi6|, G6(r) and the translational cut G_r(dx, 0)
+phase      solid / fluid / soft-fluid and percolation labels
+trajectory reading one H5MD trajectory (file access, used by the pipeline only)
+pipeline   analyze_run / analyze_sweep / aggregate_sweep / plot_sweep (files)
+
+Only :mod:`trajectory` and :mod:`pipeline` touch files; everything else takes and
+returns numpy arrays so that it can be tested with known answers.
+"""

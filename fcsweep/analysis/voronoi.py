@@ -1,0 +1,139 @@
+"""Periodic Voronoi neighbours of cell centroids, defect cells and defect clusters.
+
+The tessellation is freud's (voro++) in a 2-D periodic box.  freud boxes are centred at
+the origin; positions given in ``[0, Lx) x [0, Ly)`` are shifted by half the box.
+A cell's neighbour count is its number of Voronoi edges (sides).  A defect is a cell
+with a count different from 6 (MODEL.md); ``rho_d`` = defects / N.  Defect clusters are
+connected components of defect cells over Voronoi adjacency
+(``scipy.sparse.csgraph.connected_components``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import freud
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+
+def freud_system(pos: np.ndarray, box) -> tuple:
+    """A freud ``(Box, points)`` system for 2-D positions in ``[0, Lx) x [0, Ly)``."""
+    pos = np.asarray(pos, dtype=float)
+    Lx, Ly = float(box[0]), float(box[1])
+    fbox = freud.box.Box(Lx, Ly, is2D=True)
+    p3 = np.zeros((pos.shape[0], 3), dtype=float)
+    p3[:, :2] = pos - np.array([Lx, Ly]) / 2.0
+    p3[:, :2] = p3[:, :2] - np.array([Lx, Ly]) * np.round(p3[:, :2] / np.array([Lx, Ly]))
+    return fbox, p3
+
+
+@dataclass
+class VoronoiNeighbors:
+    """Voronoi bonds of one frame.
+
+    Attributes
+    ----------
+    i, j : ndarray of int, shape (B,)
+        Directed bonds ``i -> j``, one per Voronoi edge of cell ``i``.
+    vectors : ndarray, shape (B, 2)
+        Minimum-image bond vectors ``r_j - r_i``.
+    n_sides : ndarray of int, shape (N,)
+        Voronoi edges per cell.
+    nlist : freud.locality.NeighborList
+        The same bonds, for reuse in freud computations.
+    """
+
+    i: np.ndarray
+    j: np.ndarray
+    vectors: np.ndarray
+    n_sides: np.ndarray
+    nlist: object
+
+
+def voronoi_neighbors(pos: np.ndarray, box) -> VoronoiNeighbors:
+    """Periodic Voronoi tessellation of the centroids ``pos`` (N, 2) in ``box`` (Lx, Ly)."""
+    system = freud_system(pos, box)
+    vor = freud.locality.Voronoi()
+    vor.compute(system)
+    nl = vor.nlist
+    i = np.asarray(nl.query_point_indices, dtype=np.int64)
+    j = np.asarray(nl.point_indices, dtype=np.int64)
+    n_sides = np.bincount(i, minlength=len(pos)).astype(np.int64)
+    vec = np.asarray(nl.vectors, dtype=float)[:, :2]
+    return VoronoiNeighbors(i, j, vec, n_sides, nl)
+
+
+def defect_mask(n_sides: np.ndarray) -> np.ndarray:
+    """True for cells whose number of Voronoi neighbours differs from 6."""
+    return np.asarray(n_sides) != 6
+
+
+def defect_clusters(defect: np.ndarray, i: np.ndarray, j: np.ndarray) -> np.ndarray:
+    """Sizes of the connected clusters of defect cells over the bonds ``(i, j)``.
+
+    Parameters
+    ----------
+    defect : ndarray of bool, shape (N,)
+    i, j : ndarray of int
+        Neighbour bonds (either direction, duplicates allowed).
+
+    Returns
+    -------
+    ndarray of int
+        Cluster sizes, largest first; empty if there is no defect.
+    """
+    defect = np.asarray(defect, dtype=bool)
+    N = defect.size
+    idx = np.flatnonzero(defect)
+    if idx.size == 0:
+        return np.zeros(0, dtype=np.int64)
+    keep = defect[i] & defect[j]
+    g = coo_matrix((np.ones(int(keep.sum())), (i[keep], j[keep])), shape=(N, N)).tocsr()
+    _, labels = connected_components(g, directed=False)
+    sizes = np.bincount(labels[idx])
+    sizes = sizes[sizes > 0]
+    return np.sort(sizes)[::-1].astype(np.int64)
+
+
+def cluster_size_counts(sizes: np.ndarray, N: int) -> np.ndarray:
+    """Number of clusters of each size ``s = 1 .. N`` (index ``s - 1``)."""
+    sizes = np.asarray(sizes, dtype=np.int64)
+    return np.bincount(sizes, minlength=N + 1)[1:N + 1].astype(np.int64)
+
+
+def defect_statistics(frames_pos, box) -> dict:
+    """Defect fraction and clusters averaged over frames.
+
+    Parameters
+    ----------
+    frames_pos : ndarray, shape (F, N, 2)
+    box : (Lx, Ly)
+
+    Returns
+    -------
+    dict
+        ``rho_d`` (mean defect fraction), ``rho_d_err`` (standard error over frames),
+        ``largest_cluster_fraction`` (mean of s_max / N), ``largest_cluster_fraction_err``,
+        ``cluster_size_counts`` (int, shape (N,), pooled over frames),
+        ``n_sides_counts`` (int, shape (13,), cells with 0..12 sides pooled), ``n_frames``.
+    """
+    frames_pos = np.asarray(frames_pos, dtype=float)
+    F, N, _ = frames_pos.shape
+    rho, pmax = np.empty(F), np.empty(F)
+    counts = np.zeros(N, dtype=np.int64)
+    sides = np.zeros(13, dtype=np.int64)
+    for f in range(F):
+        vn = voronoi_neighbors(frames_pos[f], box)
+        d = defect_mask(vn.n_sides)
+        rho[f] = d.mean()
+        sizes = defect_clusters(d, vn.i, vn.j)
+        pmax[f] = sizes[0] / N if sizes.size else 0.0
+        counts += cluster_size_counts(sizes, N)
+        sides += np.bincount(np.minimum(vn.n_sides, 12), minlength=13)
+    sem = (lambda x: float(x.std(ddof=1) / np.sqrt(len(x))) if len(x) > 1 else float("nan"))
+    return {"rho_d": float(rho.mean()), "rho_d_err": sem(rho),
+            "largest_cluster_fraction": float(pmax.mean()),
+            "largest_cluster_fraction_err": sem(pmax),
+            "cluster_size_counts": counts, "n_sides_counts": sides, "n_frames": F}
