@@ -45,6 +45,7 @@ __all__ = [
     "reference_rates",
     "minimum_image",
     "candidate_pairs",
+    "continuum_rates",
 ]
 
 _CHUNK_POINTS = 1 << 21  # grid points per vectorised chunk (memory ~ 100 MB peak)
@@ -294,6 +295,11 @@ def overlap_areas(d, theta_i, a_i, b_i, theta_j, a_j, b_j, *, R0=1.0, resolution
     dist = np.hypot(d[:, 0], d[:, 1])
     near = dist < (bounding_radius(a_i, b_i, R0) + bounding_radius(a_j, b_j, R0)) * (1 + 1e-12)
     out = np.zeros(B)
+    # coincident identical cells: the gap vanishes identically, A = π R0²
+    same = (dist <= 1e-12 * R0) & (np.abs(np.angle(np.exp(1j * (th_i - th_j)))) <= 1e-12) \
+        & np.all(np.abs(a_i - a_j) <= 1e-12, axis=1) & np.all(np.abs(b_i - b_j) <= 1e-12, axis=1)
+    out[same] = np.pi * R0 * R0
+    near &= ~same
     if not np.any(near):
         return out
     idx = np.flatnonzero(near)
@@ -495,3 +501,55 @@ def reference_rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, mu_theta=1.0
         "grad_a": g_a,
         "grad_b": g_b,
     }
+
+
+def continuum_rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, mu_theta=1.0,
+                    mu_shape=1.0, resolution=2048, gauss_points=64) -> dict:
+    """MODEL.md's rate integrals evaluated on the exact inside arcs (K → ∞ limit).
+
+    The sums Σ_k o_ik f(φ_k) Δφ of MODEL.md become Σ_j ∫_{arcs of i inside j} f(φ) dφ,
+    integrated with Gauss–Legendre (``gauss_points`` per arc, exact for these smooth
+    trigonometric integrands of degree ≤ 2M + 1).  ∂P/∂a_n uses
+    :func:`fcsweep.model.shape.perimeter_gradient`.  A loop over pairs: for tests and
+    small N.  Comparing it with :func:`reference_rates` checks MODEL.md's formulas.
+
+    Returns
+    -------
+    dict
+        ``dpos`` (N, 2), ``dtheta`` (N,), ``da``, ``db`` (N, M-1).
+    """
+    from fcsweep.model.shape import mode_numbers, perimeter_gradient, radius
+
+    pos = np.asarray(pos, dtype=float)
+    theta = np.asarray(theta, dtype=float)
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float)
+    N, m = a.shape
+    n = mode_numbers(m)
+    x_gl, w_gl = np.polynomial.legendre.leggauss(gauss_points)
+    F = np.zeros((N, 2))
+    T = np.zeros(N)
+    GA = np.zeros((N, m))
+    GB = np.zeros((N, m))
+    pi, pj, _ = candidate_pairs(pos, a, b, R0=R0, box=box)
+    a0 = a0_of(a, b)
+    for i, j in zip(np.concatenate([pi, pj]), np.concatenate([pj, pi])):
+        arcs = inside_arcs(pos[i], theta[i], a[i], b[i], pos[j], theta[j], a[j], b[j], R0=R0,
+                           box=box, resolution=resolution)
+        for s, t in arcs:
+            phi = 0.5 * (s + t) + 0.5 * (t - s) * x_gl
+            w = 0.5 * (t - s) * w_gl
+            R, dR = radius(phi, a[i], b[i], R0)
+            lab = theta[i] + phi
+            e = np.stack([np.cos(lab), np.sin(lab)], axis=1)
+            ep = np.stack([-np.sin(lab), np.cos(lab)], axis=1)
+            F[i] += ((dR[:, None] * ep - R[:, None] * e) * w[:, None]).sum(0)
+            T[i] += np.sum(R * dR * w)
+            cos_n = np.cos(np.multiply.outer(phi, n))
+            sin_n = np.sin(np.multiply.outer(phi, n))
+            GA[i] += R0 * ((R * w) @ (cos_n - a[i] / (2 * a0[i])))
+            GB[i] += R0 * ((R * w) @ (sin_n - b[i] / (2 * a0[i])))
+    dPa, dPb = perimeter_gradient(a, b, R0) if m else (GA * 0, GB * 0)
+    e = np.stack([np.cos(theta), np.sin(theta)], axis=1)
+    return {"dpos": v0 * e + F, "dtheta": mu_theta * T,
+            "da": -mu_shape * (GA + eta * dPa), "db": -mu_shape * (GB + eta * dPb)}

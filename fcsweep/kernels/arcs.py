@@ -1,0 +1,222 @@
+"""Contact-arc quadrature (numba): resolve overlap arcs between contour points.
+
+On each contour segment [phi_k, phi_k + h] of cell i the radial gap g(phi) of the
+contour relative to cell j (positive inside j) is interpolated by the cubic Hermite
+polynomial through g and dg/dphi at both ends.  Its roots, found with a bracketed
+Newton iteration run to convergence, bound the part of the segment inside j — also when
+neither end point is inside (a shallow contact no sample point sees).  The overlap
+integrands are then integrated exactly in phi over each inside piece with two-point
+Gauss-Legendre.  The error falls like K^-4 instead of the K^-1 of the point rule.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+NJIT = dict(cache=True, error_model="numpy")
+
+_G = 0.5 / math.sqrt(3.0)  # Gauss-Legendre nodes at 1/2 -+ _G on [0, 1]
+
+
+@njit(**NJIT)
+def gap_and_slope(ox, oy, tx, ty, j, a, b, geo, R0):
+    """Gap g = R_j(psi) - |d| and dg/dphi for the offset d from r_j and tangent t = dx/dphi."""
+    M1 = a.shape[1]
+    d2 = ox * ox + oy * oy
+    r = math.sqrt(d2)
+    if r < 1e-300:
+        return R0 * geo[j, 0], 0.0
+    inv = 1.0 / r
+    ct = geo[j, 2]
+    st = geo[j, 3]
+    c = (ox * ct + oy * st) * inv
+    s = (oy * ct - ox * st) * inv
+    cn = c
+    sn = s
+    Rj = geo[j, 0]
+    dRj = 0.0
+    for m in range(M1):
+        t = cn * c - sn * s
+        sn = sn * c + cn * s
+        cn = t
+        am = a[j, m]
+        bm = b[j, m]
+        Rj += am * cn + bm * sn
+        dRj += (m + 2.0) * (bm * cn - am * sn)
+    dpsi = (ox * ty - oy * tx) * inv * inv
+    return R0 * Rj - r, R0 * dRj * dpsi - (ox * tx + oy * ty) * inv
+
+
+@njit(**NJIT)
+def _hermite(t, g0, g1, m0, m1):
+    """Cubic Hermite value and derivative on [0, 1] (slopes already scaled by h)."""
+    t2 = t * t
+    t3 = t2 * t
+    p = (2 * t3 - 3 * t2 + 1) * g0 + (t3 - 2 * t2 + t) * m0 + (-2 * t3 + 3 * t2) * g1 + (t3 - t2) * m1
+    dp = (6 * t2 - 6 * t) * g0 + (3 * t2 - 4 * t + 1) * m0 + (-6 * t2 + 6 * t) * g1 + (3 * t2 - 2 * t) * m1
+    return p, dp
+
+
+@njit(**NJIT)
+def _root(tl, tr, pl, g0, g1, m0, m1):
+    """Root of the Hermite cubic in [tl, tr] where it changes sign; safeguarded Newton."""
+    t = 0.5 * (tl + tr)
+    for _ in range(60):
+        p, dp = _hermite(t, g0, g1, m0, m1)
+        if (p > 0.0) == (pl > 0.0):
+            tl = t
+        else:
+            tr = t
+        step_ok = dp != 0.0
+        tn = t - p / dp if step_ok else 0.5 * (tl + tr)
+        if not (tl < tn < tr):
+            tn = 0.5 * (tl + tr)
+        if abs(tn - t) < 1e-14 or tr - tl < 1e-14:
+            return tn
+        t = tn
+    return t
+
+
+@njit(**NJIT)
+def _critical_points(g0, g1, m0, m1):
+    """Stationary points of the Hermite cubic in (0, 1): returns (count, t1, t2)."""
+    # p'(t) = A t^2 + B t + C
+    A = 6 * g0 + 3 * m0 - 6 * g1 + 3 * m1
+    B = -6 * g0 - 4 * m0 + 6 * g1 - 2 * m1
+    C = m0
+    n = 0
+    r1 = 0.0
+    r2 = 0.0
+    if abs(A) < 1e-300:
+        if B != 0.0:
+            r = -C / B
+            if 0.0 < r < 1.0:
+                return 1, r, 0.0
+        return 0, 0.0, 0.0
+    disc = B * B - 4 * A * C
+    if disc < 0.0:
+        return 0, 0.0, 0.0
+    sq = math.sqrt(disc)
+    q = -0.5 * (B + math.copysign(sq, B))
+    cands0 = q / A
+    cands1 = C / q if q != 0.0 else cands0
+    lo = min(cands0, cands1)
+    hi = max(cands0, cands1)
+    if 0.0 < lo < 1.0:
+        r1 = lo
+        n = 1
+    if 0.0 < hi < 1.0 and hi != lo:
+        if n == 0:
+            r1 = hi
+        else:
+            r2 = hi
+        n += 1
+    return n, r1, r2
+
+
+@njit(**NJIT)
+def _integrate(i, k, t1, t2, h, a, b, geo, R0, cphi, sphi, acc):
+    """Add the integrals over phi in [phi_k + t1 h, phi_k + t2 h] of the overlap integrands.
+
+    ``acc[i]`` collects [force x, force y, torque, R, R cos n phi (M1), R sin n phi (M1)],
+    the continuum versions of the point sums in :func:`fcsweep.kernels.contour.cell_rates`.
+    """
+    M1 = a.shape[1]
+    half = 0.5 * (t2 - t1)
+    mid = 0.5 * (t1 + t2)
+    w = half * h
+    c = geo[i, 2]
+    s = geo[i, 3]
+    for q in range(2):
+        d = (mid + (2 * q - 1) * _G * 2.0 * half) * h
+        cd = math.cos(d)
+        sd = math.sin(d)
+        cp = cphi[k] * cd - sphi[k] * sd
+        sp = sphi[k] * cd + cphi[k] * sd
+        cn = cp
+        sn = sp
+        r = geo[i, 0]
+        dr = 0.0
+        for m in range(M1):
+            tt = cn * cp - sn * sp
+            sn = sn * cp + cn * sp
+            cn = tt
+            r += a[i, m] * cn + b[i, m] * sn
+            dr += (m + 2.0) * (b[i, m] * cn - a[i, m] * sn)
+        r *= R0
+        dr *= R0
+        ex = c * cp - s * sp
+        ey = s * cp + c * sp
+        acc[i, 0] += w * (-dr * ey - r * ex)
+        acc[i, 1] += w * (dr * ex - r * ey)
+        acc[i, 2] += w * r * dr
+        acc[i, 3] += w * r
+        cn = cp
+        sn = sp
+        for m in range(M1):
+            tt = cn * cp - sn * sp
+            sn = sn * cp + cn * sp
+            cn = tt
+            acc[i, 4 + m] += w * r * cn
+            acc[i, 4 + M1 + m] += w * r * sn
+
+
+@njit(**NJIT)
+def arc_pair(i, j, dx, dy, k0, nseg, theta, a, b, geo, R, dR, px, py, cphi, sphi, R0, gbuf, acc):
+    """Integrate the overlap of cell j over the contour segments of cell i.
+
+    ``gbuf[i, 0, m]`` holds the gap at window point m (contour index k0 + m, modulo K);
+    this function adds the slopes to ``gbuf[i, 1, :]`` and the arc integrals to ``acc[i]``.
+    Segments m = 0 .. nseg - 1 join window points m and m + 1.
+    """
+    K = cphi.shape[0]
+    h = 2.0 * math.pi / K
+    c = geo[i, 2]
+    s = geo[i, 3]
+    for m in range(nseg + 1):
+        kk = k0 + m
+        k = kk % K
+        ex = c * cphi[k] - s * sphi[k]
+        ey = s * cphi[k] + c * sphi[k]
+        tx = dR[i, k] * ex - R[i, k] * ey
+        ty = dR[i, k] * ey + R[i, k] * ex
+        g, dg = gap_and_slope(px[i, k] - dx, py[i, k] - dy, tx, ty, j, a, b, geo, R0)
+        gbuf[i, 0, m] = g
+        gbuf[i, 1, m] = dg * h
+    for m in range(nseg):
+        k = (k0 + m) % K
+        g0 = gbuf[i, 0, m]
+        g1 = gbuf[i, 0, m + 1]
+        m0 = gbuf[i, 1, m]
+        m1 = gbuf[i, 1, m + 1]
+        in0 = g0 > 0.0
+        in1 = g1 > 0.0
+        if in0 != in1:
+            t = _root(0.0, 1.0, g0, g0, g1, m0, m1)
+            if in0:
+                _integrate(i, k, 0.0, t, h, a, b, geo, R0, cphi, sphi, acc)
+            else:
+                _integrate(i, k, t, 1.0, h, a, b, geo, R0, cphi, sphi, acc)
+            continue
+        # same sign at both ends: the cubic may still cross zero twice in between
+        n, t1, t2 = _critical_points(g0, g1, m0, m1)
+        tc = -1.0
+        for q in range(n):
+            tq = t1 if q == 0 else t2
+            p, _ = _hermite(tq, g0, g1, m0, m1)
+            if (p > 0.0) != in0:
+                tc = tq
+                break
+        if tc < 0.0:
+            if in0:
+                _integrate(i, k, 0.0, 1.0, h, a, b, geo, R0, cphi, sphi, acc)
+            continue
+        ta = _root(0.0, tc, g0, g0, g1, m0, m1)
+        tb = _root(tc, 1.0, -g0 if g0 != 0.0 else 1.0, g0, g1, m0, m1)
+        if in0:
+            _integrate(i, k, 0.0, ta, h, a, b, geo, R0, cphi, sphi, acc)
+            _integrate(i, k, tb, 1.0, h, a, b, geo, R0, cphi, sphi, acc)
+        else:
+            _integrate(i, k, ta, tb, h, a, b, geo, R0, cphi, sphi, acc)

@@ -1,0 +1,136 @@
+"""Euler-Maruyama integration of the contour model (numba).
+
+The noise for all steps of a chunk is drawn by the caller from a numpy Generator and
+passed in, so a run is determined by its parameters and seed, and a chunked or resumed
+run reproduces an uninterrupted one bit for bit.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from .celllist import build_cell_list, grid_shape
+from .contour import NJIT, all_rates, geometry
+
+#: Status codes returned by :func:`run_chunk`.
+OK = 0
+NONFINITE = 1
+TOO_FAST = 2
+
+#: Indices into the float parameter vector of :func:`run_chunk`.
+P_LX, P_LY, P_R0, P_ETA, P_V0, P_MUT, P_MUS, P_DT, P_NOISE, P_SMAX, P_DMAX = range(11)
+
+
+@njit(parallel=True, **NJIT)
+def euler_update(pos, image, theta, a, b, dpos, dth, da, db, noise, Lx, Ly, periodic, dt, noise_amp,
+                 smax, dmax, flags):
+    """One Euler-Maruyama update; project shapes beyond ``smax``; flag bad cells.
+
+    ``flags[i]``: bit 1 non-finite, bit 2 displacement above ``dmax``, bit 4 projected.
+    """
+    N, M1 = a.shape
+    for i in prange(N):
+        f = 0
+        vx = dpos[i, 0]
+        vy = dpos[i, 1]
+        if not (math.isfinite(vx) and math.isfinite(vy) and math.isfinite(dth[i])):
+            f |= 1
+        if dt * math.sqrt(vx * vx + vy * vy) > dmax:
+            f |= 2
+        x = pos[i, 0] + dt * vx
+        y = pos[i, 1] + dt * vy
+        if periodic:
+            sx = math.floor(x / Lx)
+            sy = math.floor(y / Ly)
+            if sx != 0.0:
+                x -= sx * Lx
+                image[i, 0] += np.int64(sx)
+            if sy != 0.0:
+                y -= sy * Ly
+                image[i, 1] += np.int64(sy)
+            # floating round-off can leave x == Lx after the shift
+            if x >= Lx:
+                x -= Lx
+                image[i, 0] += 1
+            if y >= Ly:
+                y -= Ly
+                image[i, 1] += 1
+        pos[i, 0] = x
+        pos[i, 1] = y
+        theta[i] += dt * dth[i] + noise_amp * noise[i]
+        s1 = 0.0
+        for m in range(M1):
+            a[i, m] += dt * da[i, m]
+            b[i, m] += dt * db[i, m]
+            s1 += math.sqrt(a[i, m] * a[i, m] + b[i, m] * b[i, m])
+        if not math.isfinite(s1):
+            f |= 1
+        elif s1 > smax:
+            scale = smax / s1
+            for m in range(M1):
+                a[i, m] *= scale
+                b[i, m] *= scale
+            f |= 4
+        flags[i] = f
+
+
+@njit(**NJIT)
+def compute_rates(pos, theta, a, b, prm, periodic, quad, tables, scratch, cl, out):
+    """Geometry, cell list and rates for the current state (helper of run_chunk)."""
+    cosn, sinn, cphi, sphi = tables
+    R, dR, px, py, geo, W, gbuf, acc = scratch
+    cell_of, cell_start, cell_members = cl
+    dpos, dth, da, db = out
+    R0 = prm[P_R0]
+    geometry(theta, a, b, R0, cosn, sinn, cphi, sphi, R, dR, px, py, geo)
+    Lx = prm[P_LX]
+    Ly = prm[P_LY]
+    nx = 0
+    ny = 0
+    if periodic:
+        rbmax = 0.0
+        for i in range(pos.shape[0]):
+            rbmax = max(rbmax, geo[i, 1])
+        nx, ny = grid_shape(Lx, Ly, 2.0 * rbmax)
+        if nx >= 3 and ny >= 3 and (nx * ny + 1) <= cell_start.shape[0]:
+            build_cell_list(pos, Lx, Ly, nx, ny, cell_of, cell_start, cell_members)
+        else:
+            nx = 0
+            ny = 0
+    all_rates(pos, theta, a, b, Lx, Ly, periodic, R0, prm[P_ETA], prm[P_V0], prm[P_MUT], prm[P_MUS], quad,
+              cosn, sinn, cphi, sphi, R, dR, px, py, geo, W, gbuf, acc,
+              nx, ny, cell_of, cell_start, cell_members, dpos, dth, da, db)
+
+
+@njit(**NJIT)
+def run_chunk(pos, image, theta, a, b, noise, prm, periodic, quad, tables, scratch, cl, out, flags):
+    """Advance ``noise.shape[0]`` steps; stop early at the first bad step.
+
+    Returns
+    -------
+    steps_done : int
+    status : int
+        OK, NONFINITE or TOO_FAST (the state is left at the bad step).
+    projections : int
+        Admissibility projections during the chunk.
+    """
+    dpos, dth, da, db = out
+    nproj = 0
+    for step in range(noise.shape[0]):
+        compute_rates(pos, theta, a, b, prm, periodic, quad, tables, scratch, cl, out)
+        euler_update(pos, image, theta, a, b, dpos, dth, da, db, noise[step], prm[P_LX], prm[P_LY], periodic,
+                     prm[P_DT], prm[P_NOISE], prm[P_SMAX], prm[P_DMAX], flags)
+        worst = 0
+        for i in range(flags.shape[0]):
+            f = flags[i]
+            if f & 4:
+                nproj += 1
+            worst |= f
+        if worst & 1:
+            return step + 1, NONFINITE, nproj
+        if worst & 2:
+            return step + 1, TOO_FAST, nproj
+    return noise.shape[0], OK, nproj

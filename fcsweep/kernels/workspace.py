@@ -1,0 +1,52 @@
+"""Preallocated scratch arrays and tables for the numba kernels (no per-step allocation)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .contour import QUADRATURE_CODES, mode_tables
+
+
+class Workspace:
+    """Tables and scratch for N cells, K contour points and M1 = M - 1 shape modes.
+
+    Parameters
+    ----------
+    N, K, M1 : int
+    box : (Lx, Ly) or None
+        Sizes the cell-list arrays; ``None`` for open boundaries.
+    R0 : float
+    """
+
+    def __init__(self, N, K, M1, box, R0=1.0):
+        self.N, self.K, self.M1 = int(N), int(K), int(M1)
+        self.tables = mode_tables(self.K, self.M1)
+        self.scratch = (
+            np.zeros((N, K)),  # R
+            np.zeros((N, K)),  # dR
+            np.zeros((N, 2 * K)),  # px
+            np.zeros((N, 2 * K)),  # py
+            np.zeros((N, 4)),  # geo: a0, bounding radius, cos theta, sin theta
+            np.zeros((N, K)),  # W: point weights
+            np.zeros((N, 2, K + 3)),  # gbuf: gap and slope on a window
+            np.zeros((N, 4 + 2 * self.M1)),  # acc: arc integrals
+        )
+        # cells of side >= 2 R0 (a0 + s) >= 2 R0 a0 >= 2 R0 / sqrt(3) ... bounded count
+        if box is None:
+            ncell = 1
+        else:
+            side = 2.0 * R0 / math.sqrt(3.0) * 0.999
+            ncell = int(box[0] // side + 1) * int(box[1] // side + 1)
+        self.cl = (np.zeros(N, np.int64), np.zeros(ncell + 1, np.int64), np.zeros(N, np.int64))
+        self.out = (np.zeros((N, 2)), np.zeros(N), np.zeros((N, M1)), np.zeros((N, M1)))
+        self.flags = np.zeros(N, np.int64)
+
+
+def quadrature_code(name):
+    """Integer code of a quadrature name; ValueError naming the allowed ones."""
+    try:
+        return QUADRATURE_CODES[name]
+    except KeyError:
+        raise ValueError(f"quadrature must be one of {sorted(QUADRATURE_CODES)}; got {name!r}") from None

@@ -1,0 +1,204 @@
+"""Deterministic rates of the Fourier contour cell model: the readable numpy twin.
+
+This module writes out MODEL.md's equations of motion directly, one pair of cells at a
+time, with no cell list and no angular windows.  It is the reference the numba kernels
+in :mod:`fcsweep.kernels` are tested against, and the function notebooks call.
+
+Equations (MODEL.md), with ``o_ik`` the overlap weight of contour point k of cell i:
+
+    dr_i/dt   = v0 e(theta_i) + sum_k o_ik [ R'_k e_perp(theta_i+phi_k) - R_k e(theta_i+phi_k) ] dphi
+    dtheta_i  = mu_theta sum_k o_ik R_k R'_k dphi
+    da_n/dt   = -mu_shape [ sum_k o_ik R_k dR/da_n(phi_k) dphi + eta dP/da_n ]
+    db_n/dt   = -mu_shape [ sum_k o_ik R_k dR/db_n(phi_k) dphi + eta dP/db_n ]
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+from .shape import a0_of, amplitude_sum, mode_numbers
+
+#: Quadrature rules for the overlap weights.
+QUADRATURES = ("binary", "linear", "arc")
+
+
+def _images(box):
+    """Periodic image shifts that can matter for a pair (all 3x3 shifts, or none)."""
+    if box is None:
+        return np.zeros((1, 2))
+    Lx, Ly = float(box[0]), float(box[1])
+    return np.array([(sx * Lx, sy * Ly) for sx, sy in itertools.product((-1, 0, 1), repeat=2)])
+
+
+def radial_gap(points, pos_j, theta_j, a_j, b_j, R0=1.0):
+    """Radial gap g = R_j(psi) - |x - r_j| of points x relative to cell j (> 0 inside).
+
+    Parameters
+    ----------
+    points : ndarray, shape (..., 2)
+        Points in the same frame as ``pos_j`` (no periodic wrapping is applied).
+    pos_j : ndarray, shape (2,)
+    theta_j : float
+    a_j, b_j : ndarray, shape (M-1,)
+
+    Returns
+    -------
+    ndarray, shape (...)
+    """
+    d = np.asarray(points, dtype=float) - np.asarray(pos_j, dtype=float)
+    dist = np.hypot(d[..., 0], d[..., 1])
+    psi = np.arctan2(d[..., 1], d[..., 0]) - theta_j
+    n = mode_numbers(len(a_j))
+    Rj = R0 * (a0_of(a_j, b_j) + np.cos(np.multiply.outer(psi, n)) @ a_j + np.sin(np.multiply.outer(psi, n)) @ b_j)
+    return Rj - dist
+
+
+def _segment_weights_linear(g):
+    """Linear-gap weights: inside fraction of the half segments each point owns.
+
+    ``g`` has shape (..., K) and is periodic along the last axis.  On each segment
+    [k, k+1] g is interpolated linearly; point k owns the half next to it.
+    """
+    g0 = g
+    g1 = np.roll(g, -1, axis=-1)
+    in0 = g0 > 0
+    in1 = g1 > 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.where(in0 != in1, g0 / (g0 - g1), 0.0)  # root position in [0, 1]
+    # inside length (in units of the segment) in the first half [0, 1/2] and second half
+    first = np.where(in0 & in1, 0.5, np.where(in0 & ~in1, np.minimum(t, 0.5), np.where(~in0 & in1, np.maximum(0.0, 0.5 - t), 0.0)))
+    second = np.where(in0 & in1, 0.5, np.where(in0 & ~in1, np.maximum(0.0, t - 0.5), np.where(~in0 & in1, np.minimum(0.5, 1.0 - t), 0.0)))
+    return first + np.roll(second, 1, axis=-1)
+
+
+def occupancy(pos, theta, a, b, *, box=None, R0=1.0, contour_points=40, quadrature="binary"):
+    """Overlap weight o_ik of every contour point, summed over neighbours j != i.
+
+    Parameters
+    ----------
+    pos : ndarray, shape (N, 2)
+    theta : ndarray, shape (N,)
+    a, b : ndarray, shape (N, M-1)
+    box : (Lx, Ly) or None
+        Periodic box; ``None`` for open boundaries.
+    quadrature : {"binary", "linear"}
+        ``binary``: o_ik counts the neighbours whose interior holds the point (paper).
+        ``linear``: each point is weighted by the inside fraction of the half segments
+        on either side of it, from linear interpolation of the radial gap.
+
+    Returns
+    -------
+    ndarray, shape (N, K)
+    """
+    if quadrature not in ("binary", "linear"):
+        raise ValueError(f"occupancy() supports 'binary' and 'linear'; got {quadrature!r}")
+    pos = np.asarray(pos, dtype=float)
+    theta = np.asarray(theta, dtype=float)
+    a = np.asarray(a, dtype=float).reshape(len(pos), -1)
+    b = np.asarray(b, dtype=float).reshape(len(pos), -1)
+    N, K = len(pos), int(contour_points)
+    phi = 2.0 * np.pi * np.arange(K) / K
+    R, _ = contour_radius(phi, a, b, R0)
+    lab = theta[:, None] + phi[None, :]
+    pts = np.stack([R * np.cos(lab), R * np.sin(lab)], axis=-1)  # (N, K, 2) relative to r_i
+    Rb = R0 * (a0_of(a, b) + amplitude_sum(a, b))
+    o = np.zeros((N, K))
+    for i in range(N):
+        for j in range(N):
+            if i == j:
+                continue
+            for shift in _images(box):
+                rij = pos[j] + shift - pos[i]
+                if np.hypot(*rij) >= Rb[i] + Rb[j]:
+                    continue
+                g = radial_gap(pts[i], rij, theta[j], a[j], b[j], R0)
+                o[i] += (g > 0) if quadrature == "binary" else _segment_weights_linear(g)
+    return o
+
+
+def contour_radius(phi, a, b, R0=1.0):
+    """R and R' of every cell on the angles ``phi``; shapes (N, K)."""
+    from .shape import radius
+
+    return radius(phi, a, b, R0)
+
+
+def rates_from_occupancy(o, theta, a, b, *, eta, v0, R0=1.0, mu_theta=1.0, mu_shape=1.0):
+    """Deterministic rates from given contour weights ``o`` (N, K); see module docstring.
+
+    The perimeter gradient is evaluated on the same K contour points.
+    """
+    theta = np.asarray(theta, dtype=float)
+    N, K = o.shape
+    dphi = 2.0 * np.pi / K
+    phi = dphi * np.arange(K)
+    R, dR = contour_radius(phi, a, b, R0)
+    lab = theta[:, None] + phi[None, :]
+    e = np.stack([np.cos(lab), np.sin(lab)], axis=-1)
+    e_perp = np.stack([-np.sin(lab), np.cos(lab)], axis=-1)
+    f = (dR[..., None] * e_perp - R[..., None] * e) * o[..., None]
+    dpos = v0 * np.stack([np.cos(theta), np.sin(theta)], axis=-1) + f.sum(axis=1) * dphi
+    dtheta = mu_theta * (o * R * dR).sum(axis=1) * dphi
+
+    n = mode_numbers(a.shape[1])
+    cos_n = np.cos(np.multiply.outer(n, phi))  # (M-1, K)
+    sin_n = np.sin(np.multiply.outer(n, phi))
+    a0 = a0_of(a, b)[:, None]
+    s = np.sqrt(R * R + dR * dR)
+    # dR/da_n = R0 (cos n phi - a_n/(2 a0)),  dR'/da_n = -n R0 sin n phi
+    u = o * R + eta * R / s
+    v = eta * dR / s
+    usum = u.sum(axis=1)[:, None]
+    da = -mu_shape * R0 * dphi * (u @ cos_n.T - a / (2 * a0) * usum - n * (v @ sin_n.T))
+    db = -mu_shape * R0 * dphi * (u @ sin_n.T - b / (2 * a0) * usum + n * (v @ cos_n.T))
+    return {"dpos": dpos, "dtheta": dtheta, "da": da, "db": db}
+
+
+def rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, contour_points=40, quadrature="binary",
+          mu_theta=1.0, mu_shape=1.0):
+    """Deterministic time derivatives of MODEL.md (no noise).
+
+    Parameters
+    ----------
+    pos : array_like, shape (N, 2)
+        Cell centres (polar origins r_i).
+    theta : array_like, shape (N,)
+        Polarity angles.
+    a, b : array_like, shape (N, M-1)
+        Shape modes; column k holds mode n = k + 2.  M is inferred from the width.
+    eta, v0 : float
+        Membrane tension and self-propulsion speed.
+    box : (Lx, Ly) or None
+        Periodic box (minimum image and, for tiny boxes, every image in range), or
+        ``None`` for open boundaries.
+    R0 : float
+        Radius of the circle of equal area.
+    contour_points : int
+        K, contour quadrature points.
+    quadrature : {"binary", "linear", "arc"}
+        Overlap rule; ``"binary"`` is the paper's.
+    mu_theta, mu_shape : float
+        Mobilities of theta and of the shape modes.
+
+    Returns
+    -------
+    dict
+        ``"dpos"`` (N, 2) including ``v0 e(theta)``, ``"dtheta"`` (N,),
+        ``"da"`` and ``"db"`` (N, M-1).
+    """
+    pos = np.asarray(pos, dtype=float).reshape(-1, 2)
+    N = len(pos)
+    theta = np.asarray(theta, dtype=float).reshape(N)
+    a = np.asarray(a, dtype=float).reshape(N, -1)
+    b = np.asarray(b, dtype=float).reshape(N, -1)
+    if quadrature not in QUADRATURES:
+        raise ValueError(f"quadrature must be one of {QUADRATURES}; got {quadrature!r}")
+    if quadrature == "arc":
+        from ..kernels.api import kernel_rates  # the arc rule has no separate numpy twin here
+
+        return kernel_rates(pos, theta, a, b, eta=eta, v0=v0, box=box, R0=R0, contour_points=contour_points,
+                            quadrature=quadrature, mu_theta=mu_theta, mu_shape=mu_shape)
+    o = occupancy(pos, theta, a, b, box=box, R0=R0, contour_points=contour_points, quadrature=quadrature)
+    return rates_from_occupancy(o, theta, a, b, eta=eta, v0=v0, R0=R0, mu_theta=mu_theta, mu_shape=mu_shape)

@@ -1,0 +1,257 @@
+"""State, parameters and the step loop of the Fourier contour cell model (no file I/O
+beyond an explicit ``save``/``load`` of the full state).
+
+>>> from fcsweep.simulation import Simulation
+>>> sim = Simulation.from_lattice(N=64, eta=0.03, v0=0.06, Dr=0.1, seed=1)
+>>> sim.advance(100)
+>>> sim.state.pos.shape
+(64, 2)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+import tempfile
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import __version__
+from .kernels.step import NONFINITE, OK, TOO_FAST, run_chunk
+from .kernels.api import param_vector
+from .kernels.workspace import Workspace, quadrature_code
+from .model.lattice import hexagonal_lattice
+from .model.shape import ADMISSIBLE_BOUND, PROJECTION_MARGIN
+
+#: Steps whose noise is drawn at once; any value gives the same trajectory.
+CHUNK = 256
+
+
+class SimulationError(RuntimeError):
+    """The dynamics became non-finite or unstable; the message names a likely cause."""
+
+
+@dataclass(frozen=True)
+class SimParams:
+    """Every parameter that determines a run (with ``seed``).
+
+    Defaults are those of MODEL.md; ``Dr`` is not given in the paper (see MODEL.md).
+    """
+
+    N: int
+    eta: float
+    v0: float
+    seed: int
+    Dr: float = 0.01
+    density: float = 0.95
+    dt: float = 5e-3
+    contour_points: int = 40
+    modes: int = 6
+    quadrature: str = "binary"
+    R0: float = 1.0
+    mu_theta: float = 1.0
+    mu_shape: float = 1.0
+
+    def __post_init__(self):
+        checks = [
+            ("eta", self.eta >= 0, ">= 0"),
+            ("v0", self.v0 >= 0, ">= 0"),
+            ("Dr", self.Dr >= 0, ">= 0"),
+            ("density", 0 < self.density < 1, "in (0, 1)"),
+            ("dt", self.dt > 0, "> 0"),
+            ("contour_points", self.contour_points >= 8, ">= 8"),
+            ("modes", self.modes == 0 or self.modes >= 2, "0 (rigid discs) or >= 2"),
+            ("R0", self.R0 > 0, "> 0"),
+            ("mu_theta", self.mu_theta >= 0, ">= 0"),
+            ("mu_shape", self.mu_shape >= 0, ">= 0"),
+        ]
+        for name, ok, allowed in checks:
+            if not ok:
+                raise ValueError(f"{name} must be {allowed}; got {getattr(self, name)!r}")
+        quadrature_code(self.quadrature)
+
+    @property
+    def box(self) -> np.ndarray:
+        """Periodic box (Lx, Ly) of the n x n lattice at this density."""
+        return hexagonal_lattice(self.N, self.density, self.R0)[1]
+
+    def to_dict(self) -> dict:
+        """Plain dict of all fields."""
+        return dataclasses.asdict(self)
+
+
+@dataclass
+class State:
+    """Full dynamical state.
+
+    Attributes
+    ----------
+    pos : float64[N, 2]   centres wrapped into the box
+    image : int64[N, 2]   box crossings; unwrapped = pos + image * box
+    theta : float64[N]    polarity angles (not wrapped)
+    a, b : float64[N, M-1]  shape modes n = 2..M
+    step : int
+    projections : int     admissibility projections so far (cell-steps)
+    box : float64[2]
+    """
+
+    pos: np.ndarray
+    image: np.ndarray
+    theta: np.ndarray
+    a: np.ndarray
+    b: np.ndarray
+    box: np.ndarray
+    step: int = 0
+    projections: int = 0
+    extra: dict = field(default_factory=dict)
+
+    def unwrapped(self) -> np.ndarray:
+        """Unwrapped centres ``pos + image * box`` (N, 2)."""
+        return self.pos + self.image * self.box
+
+
+class Simulation:
+    """Euler-Maruyama integration of N cells; noise from a PCG64 Generator.
+
+    Use :meth:`from_lattice` for MODEL.md's initial state, :meth:`advance` to integrate,
+    and :meth:`to_checkpoint` / :meth:`from_checkpoint` (or :meth:`save` / :meth:`load`)
+    to continue a run bit for bit.
+    """
+
+    def __init__(self, params: SimParams, state: State, rng: np.random.Generator):
+        self.params = params
+        self.state = state
+        self.rng = rng
+        M1 = max(params.modes - 1, 0)
+        self._ws = Workspace(params.N, params.contour_points, M1, params.box, params.R0)
+        self._periodic = True
+        self._quad = quadrature_code(params.quadrature)
+        spacing = 2.0 * math.pi * params.R0 / params.contour_points
+        self._prm = param_vector(
+            box=params.box, R0=params.R0, eta=params.eta, v0=params.v0, mu_theta=params.mu_theta,
+            mu_shape=params.mu_shape, dt=params.dt, noise_amp=math.sqrt(2.0 * params.Dr * params.dt),
+            smax=PROJECTION_MARGIN * ADMISSIBLE_BOUND, dmax=spacing,
+        )
+
+    # ------------------------------------------------------------------ construction
+    @classmethod
+    def from_lattice(cls, N, *, eta, v0, Dr=0.01, seed, density=0.95, dt=5e-3, contour_points=40, modes=6,
+                     quadrature="binary", R0=1.0, mu_theta=1.0, mu_shape=1.0) -> "Simulation":
+        """Cells on the n x n hexagonal lattice, circular, with uniform random polarity.
+
+        Parameters are those of :class:`SimParams`; N must be n*n with n even.
+        """
+        p = SimParams(N=int(N), eta=float(eta), v0=float(v0), seed=int(seed), Dr=float(Dr),
+                      density=float(density), dt=float(dt), contour_points=int(contour_points),
+                      modes=int(modes), quadrature=str(quadrature), R0=float(R0),
+                      mu_theta=float(mu_theta), mu_shape=float(mu_shape))
+        pos, box = hexagonal_lattice(p.N, p.density, p.R0)
+        rng = np.random.Generator(np.random.PCG64(p.seed))
+        theta = rng.uniform(0.0, 2.0 * np.pi, p.N)
+        M1 = max(p.modes - 1, 0)
+        state = State(pos=pos, image=np.zeros((p.N, 2), np.int64), theta=theta,
+                      a=np.zeros((p.N, M1)), b=np.zeros((p.N, M1)), box=box)
+        return cls(p, state, rng)
+
+    # ------------------------------------------------------------------ dynamics
+    @property
+    def time(self) -> float:
+        """Simulated time, ``step * dt``."""
+        return self.state.step * self.params.dt
+
+    def advance(self, steps: int) -> None:
+        """Integrate ``steps`` Euler-Maruyama steps.
+
+        Raises
+        ------
+        SimulationError
+            If a rate becomes non-finite or a cell moves more than the contour spacing
+            in one step; the state is left at the failing step.
+        """
+        steps = int(steps)
+        if steps < 0:
+            raise ValueError(f"steps must be >= 0; got {steps}")
+        s = self.state
+        ws = self._ws
+        done = 0
+        while done < steps:
+            n = min(CHUNK, steps - done)
+            noise = self.rng.standard_normal((n, self.params.N))
+            k, status, nproj = run_chunk(s.pos, s.image, s.theta, s.a, s.b, noise, self._prm, self._periodic,
+                                         self._quad, ws.tables, ws.scratch, ws.cl, ws.out, ws.flags)
+            s.step += int(k)
+            s.projections += int(nproj)
+            done += int(k)
+            if status != OK:
+                raise SimulationError(self._failure_message(status))
+
+    def _failure_message(self, status) -> str:
+        p = self.params
+        bad = np.flatnonzero(self._ws.flags & (1 if status == NONFINITE else 2))
+        what = "non-finite rates" if status == NONFINITE else "a cell moved more than the contour spacing in one step"
+        hint = (f"dt={p.dt:g} is probably too large for eta={p.eta:g}, v0={p.v0:g}; "
+                f"try dt={p.dt / 4:g} (the paper uses 5e-3)")
+        return (f"unstable at step {self.state.step}: {what} for {len(bad)} cell(s) "
+                f"(first: {bad[:5].tolist()}); {hint}")
+
+    def rates(self) -> dict:
+        """Deterministic rates of the current state (computed by the kernels)."""
+        from .kernels.api import kernel_rates
+
+        s, p = self.state, self.params
+        return kernel_rates(s.pos, s.theta, s.a, s.b, eta=p.eta, v0=p.v0, box=p.box, R0=p.R0,
+                            contour_points=p.contour_points, quadrature=p.quadrature,
+                            mu_theta=p.mu_theta, mu_shape=p.mu_shape)
+
+    # ------------------------------------------------------------------ persistence
+    def to_checkpoint(self) -> dict:
+        """Full state as a flat dict of arrays, numbers and JSON strings."""
+        s = self.state
+        return {
+            "pos": s.pos.copy(), "image": s.image.copy(), "theta": s.theta.copy(),
+            "a": s.a.copy(), "b": s.b.copy(), "box": s.box.copy(),
+            "step": int(s.step), "projections": int(s.projections),
+            "params_json": json.dumps(self.params.to_dict(), sort_keys=True),
+            "rng_state_json": json.dumps(self.rng.bit_generator.state),
+            "fcsweep_version": __version__,
+        }
+
+    @classmethod
+    def from_checkpoint(cls, ck) -> "Simulation":
+        """Rebuild a simulation from :meth:`to_checkpoint` output (or a loaded npz)."""
+        def scalar(x):
+            return np.asarray(x).item()
+
+        params = SimParams(**json.loads(str(scalar(ck["params_json"]))))
+        rng = np.random.Generator(np.random.PCG64())
+        rng.bit_generator.state = json.loads(str(scalar(ck["rng_state_json"])))
+        state = State(pos=np.array(ck["pos"], float), image=np.array(ck["image"], np.int64),
+                      theta=np.array(ck["theta"], float), a=np.array(ck["a"], float), b=np.array(ck["b"], float),
+                      box=np.array(ck["box"], float), step=int(scalar(ck["step"])),
+                      projections=int(scalar(ck["projections"])))
+        return cls(params, state, rng)
+
+    def save(self, path) -> None:
+        """Write the full state to an ``.npz`` file atomically (temporary file, then rename)."""
+        path = os.fspath(path)
+        d = os.path.dirname(os.path.abspath(path))
+        fd, tmp = tempfile.mkstemp(dir=d, prefix=".ckpt-", suffix=".npz")
+        try:
+            with os.fdopen(fd, "wb") as fh:
+                np.savez(fh, **self.to_checkpoint())
+                fh.flush()
+                os.fsync(fh.fileno())
+            os.replace(tmp, path)
+        except BaseException:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+            raise
+
+    @classmethod
+    def load(cls, path) -> "Simulation":
+        """Read a state written by :meth:`save`."""
+        with np.load(os.fspath(path), allow_pickle=False) as z:
+            return cls.from_checkpoint({k: z[k] for k in z.files})
