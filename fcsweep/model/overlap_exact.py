@@ -180,7 +180,8 @@ def _golden(side, R0, idx, lo, hi, sign, n_iter=48):
     return x, side.gap_at(x, R0, idx)
 
 
-def _inside_integral(side: _Side, O: np.ndarray, R0: float, K: int, *, return_crossings=False):
+def _inside_integral(side: _Side, O: np.ndarray, R0: float, K: int, *, return_crossings=False,
+                     return_coincident=False):
     """I = ∫_{self inside other} (x × dx) with origin offset O (self centre − origin).
 
     Returns I (B,) and, optionally, crossings (pair index, φ, is_entry) sorted per pair.
@@ -192,11 +193,14 @@ def _inside_integral(side: _Side, O: np.ndarray, R0: float, K: int, *, return_cr
     tol_ext = 1.0e3 * dphi * dphi * R0
     pair_l, lo_l, hi_l, in_l = [], [], [], []
     inside0 = np.zeros(B, dtype=bool)
+    coincident = np.zeros(B, dtype=bool)
     ext_p, ext_k, ext_sign = [], [], []
     step = max(1, _CHUNK_POINTS // K)
     for start in range(0, B, step):
         sl = slice(start, min(B, start + step))
         g = side.gap_grid(u_grid, R0, sl)
+        coincident[sl] = np.max(np.abs(g), axis=1) <= 1e-13 * R0
+        g[coincident[sl]] = -1.0  # handled by the caller
         ins = g > 0.0
         inside0[sl] = ins[:, 0]
         nxt = np.roll(ins, -1, axis=1)
@@ -258,6 +262,8 @@ def _inside_integral(side: _Side, O: np.ndarray, R0: float, K: int, *, return_cr
         I = I + np.bincount(pidx, weights=sign * F, minlength=B)
     if return_crossings:
         return I, (pidx, root, is_entry)
+    if return_coincident:
+        return I, coincident
     return I
 
 
@@ -295,20 +301,17 @@ def overlap_areas(d, theta_i, a_i, b_i, theta_j, a_j, b_j, *, R0=1.0, resolution
     dist = np.hypot(d[:, 0], d[:, 1])
     near = dist < (bounding_radius(a_i, b_i, R0) + bounding_radius(a_j, b_j, R0)) * (1 + 1e-12)
     out = np.zeros(B)
-    # coincident identical cells: the gap vanishes identically, A = π R0²
-    same = (dist <= 1e-12 * R0) & (np.abs(np.angle(np.exp(1j * (th_i - th_j)))) <= 1e-12) \
-        & np.all(np.abs(a_i - a_j) <= 1e-12, axis=1) & np.all(np.abs(b_i - b_j) <= 1e-12, axis=1)
-    out[same] = np.pi * R0 * R0
-    near &= ~same
     if not np.any(near):
         return out
     idx = np.flatnonzero(near)
     D = d[idx]
     side_i = _Side(D, th_i[idx], a_i[idx], b_i[idx], th_j[idx], a_j[idx], b_j[idx])
     side_j = _Side(-D, th_j[idx], a_j[idx], b_j[idx], th_i[idx], a_i[idx], b_i[idx])
-    I_i = _inside_integral(side_i, np.zeros_like(D), R0, int(resolution))
+    I_i, same = _inside_integral(side_i, np.zeros_like(D), R0, int(resolution),
+                                 return_coincident=True)
     I_j = _inside_integral(side_j, D, R0, int(resolution))
-    out[idx] = 0.5 * (I_i + I_j)
+    # coincident contours (gap zero to round-off everywhere): A = π R0²
+    out[idx] = np.where(same, np.pi * R0 * R0, 0.5 * (I_i + I_j))
     return out
 
 
