@@ -8,10 +8,10 @@ from fcsweep.model.shape import Q_CIRCLE, Q_STAR, shape_index
 
 #: Default histogram edges of q: width 0.01 from 3.54 (just below 2 sqrt(pi)) to 5.04.
 Q_EDGES = np.round(np.linspace(3.54, 5.04, 151), 10)
-#: Quadrature points for the perimeter; spectral convergence makes 256 exact to
-#: ~1e-10 for admissible shapes up to M = 6 except within ~1% of the admissibility
-#: bound (checked in tests against scipy.integrate.quad).
-Q_POINTS = 256
+#: Quadrature points for the perimeter; spectral convergence makes 1024 exact to
+#: ~1e-9 for admissible shapes up to M = 6 even at 98% of the admissibility
+#: bound (256 points: 1e-5 there; checked in tests against scipy.integrate.quad).
+Q_POINTS = 1024
 
 
 def shape_indices(a: np.ndarray, b: np.ndarray, R0: float = 1.0, points: int = Q_POINTS,
