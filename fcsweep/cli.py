@@ -1,0 +1,203 @@
+"""Command line: ``fcsweep simulate | status | list-runs | validate | analyze | aggregate | plot``.
+
+Every command takes an optional CONFIG (a sweep YAML file); without one it uses the
+built-in demo sweep (``fcsweep/data/smoke.yaml``, identical to ``configs/smoke.yaml``),
+which writes to ``./fcsweep-demo``.
+
+Exit codes: 0 success; 1 some run failed (the others completed); 2 invalid config or
+usage (nothing was written).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import click
+
+from fcsweep.config import ConfigError, SweepConfig, builtin_demo_path, load_config
+
+CONFIG_ARG = click.argument("config", required=False, type=click.Path(dir_okay=False))
+OUTPUT_OPT = click.option(
+    "--output", "-o", type=click.Path(file_okay=False), default=None,
+    help="Override the config's output directory.",
+)
+
+
+def _load(config: str | None, output: str | None = None) -> SweepConfig:
+    path = Path(config) if config else builtin_demo_path()
+    try:
+        cfg = load_config(path)
+    except ConfigError as exc:
+        click.echo(f"fcsweep: invalid config: {exc}", err=True)
+        sys.exit(2)
+    if output:
+        cfg = cfg.with_output(output)
+    return cfg
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(package_name="fcsweep")
+def cli() -> None:
+    """Simulate and sweep the Fourier contour cell model of active deformable cells."""
+
+
+@cli.command()
+@CONFIG_ARG
+@OUTPUT_OPT
+@click.option("--workers", "-j", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Runs computed at once on this machine (process pool).")
+@click.option("--executor", type=click.Choice(["auto", "serial", "process", "dask"]), default="auto",
+              show_default=True, help="auto: serial for 1 worker, process pool otherwise.")
+@click.option("--scheduler", default=None, help="Dask scheduler address for --executor dask, e.g. tcp://host:8786.")
+@click.option("--task-index", type=click.IntRange(min=0), default=None,
+              help="Run only run number I (job arrays; see `fcsweep list-runs`).")
+@click.option("--retry-failed", is_flag=True, help="Run only the runs whose status is failed.")
+@click.option("--force", is_flag=True, help="Recompute runs even if done (ignores checkpoints).")
+@click.option("--lock-timeout", type=click.FloatRange(min=1), default=None,
+              help="Seconds without heartbeat after which another host's run lock is stale [900].")
+@click.option("--log-every", type=click.FloatRange(min=0), default=30.0, show_default=True,
+              help="Seconds between progress lines when stderr is not a terminal.")
+@click.option("--quiet", "-q", is_flag=True, help="No progress output; only the summary.")
+def simulate(config, output, workers, executor, scheduler, task_index, retry_failed, force,
+             lock_timeout, log_every, quiet):
+    """Compute the runs of a sweep (skips done runs, resumes interrupted ones).
+
+    Without CONFIG, runs the built-in demo sweep into ./fcsweep-demo.
+    """
+    from fcsweep.io.locks import DEFAULT_STALE_AFTER
+    from fcsweep.sweep.executors import run_sweep, select_runs
+    from fcsweep.sweep.progress import Progress
+
+    cfg = _load(config, output)
+    if executor == "auto":
+        executor = "process" if workers > 1 else "serial"
+    if executor == "dask" and not scheduler:
+        click.echo("fcsweep: --executor dask needs --scheduler ADDRESS (e.g. tcp://host:8786)", err=True)
+        sys.exit(2)
+    try:
+        specs = select_runs(cfg, task_index=task_index, retry_failed=retry_failed)
+    except IndexError as exc:
+        click.echo(f"fcsweep: {exc}", err=True)
+        sys.exit(2)
+    src = config or f"built-in demo ({builtin_demo_path().name})"
+    click.echo(f"fcsweep: {len(specs)} run(s) of {src} -> {cfg.output} [{executor}"
+               f"{', ' + str(workers) + ' workers' if executor == 'process' else ''}]", err=True)
+    progress = Progress(len(specs), log_every=log_every, enabled=not quiet)
+    try:
+        outcomes = run_sweep(cfg, specs, executor=executor, workers=workers, scheduler=scheduler,
+                             progress=progress, force=force, retry_failed=retry_failed,
+                             stale_after=lock_timeout or DEFAULT_STALE_AFTER)
+    finally:
+        progress.close()
+    counts = {k: sum(o.outcome == k for o in outcomes) for k in ("done", "skipped", "locked", "failed")}
+    click.echo(
+        f"fcsweep: {counts['done']} computed, {counts['skipped']} already done, "
+        f"{counts['locked']} held by other processes, {counts['failed']} failed", err=True)
+    for o in outcomes:
+        if o.outcome == "failed":
+            click.echo(f"  failed: run {o.index} {o.run_id}: {o.message}", err=True)
+    if counts["failed"]:
+        click.echo("fcsweep: some runs failed; fix the cause and rerun with --retry-failed", err=True)
+        sys.exit(1)
+
+
+@cli.command()
+@CONFIG_ARG
+@OUTPUT_OPT
+@click.option("--json", "as_json", is_flag=True, help="Machine-readable output.")
+def status(config, output, as_json):
+    """Table of runs: done / running / interrupted / failed / pending, with progress."""
+    from fcsweep.sweep.status import collect_status, format_status
+
+    cfg = _load(config, output)
+    rows = collect_status(cfg)
+    if as_json:
+        click.echo(json.dumps(rows, indent=1))
+    else:
+        click.echo(f"sweep {cfg.output}")
+        click.echo(format_status(rows))
+
+
+@cli.command("list-runs")
+@CONFIG_ARG
+@click.option("--count", is_flag=True, help="Print only the number of runs.")
+@click.option("--json", "as_json", is_flag=True, help="All parameters of every run as JSON.")
+def list_runs(config, count, as_json):
+    """Index, id and parameters of every run (the index is what --task-index takes)."""
+    cfg = _load(config)
+    specs = cfg.runs()
+    if count:
+        click.echo(len(specs))
+        return
+    if as_json:
+        click.echo(json.dumps([{"index": s.index, "run_id": s.run_id, "replicate": s.replicate,
+                                "params": dict(s.params)} for s in specs], indent=1))
+        return
+    for s in specs:
+        click.echo(f"{s.index:>5}  {s.run_id}  {s.label()}")
+
+
+@cli.command()
+@click.argument("config", type=click.Path(dir_okay=False))
+def validate(config):
+    """Check a config file; print the number of runs or the first problem (exit 2)."""
+    cfg = _load(config)
+    click.echo(f"{config}: OK, {len(cfg.runs())} runs "
+               f"({' x '.join(f'{k}[{len(v)}]' for k, v in cfg.grid.items())} x {cfg.replicates} replicate(s)), "
+               f"{cfg.run.steps} steps each, output {cfg.output}")
+
+
+@cli.command()
+@CONFIG_ARG
+@OUTPUT_OPT
+@click.option("--workers", "-j", type=click.IntRange(min=1), default=1, show_default=True)
+@click.option("--force", is_flag=True, help="Recompute existing analysis files.")
+def analyze(config, output, workers, force):
+    """Analyse every finished run (writes analysis.h5 beside each trajectory)."""
+    from fcsweep.analysis.pipeline import analyze_sweep
+
+    cfg = _load(config, output)
+    results = analyze_sweep(cfg, workers=workers, force=force)
+    failed = 0
+    for run_id, st, msg in results:
+        click.echo(f"{run_id}  {st}  {msg}")
+        failed += st == "failed"
+    if failed:
+        sys.exit(1)
+
+
+@cli.command()
+@CONFIG_ARG
+@OUTPUT_OPT
+def aggregate(config, output):
+    """Collect per-run analyses into <output>/phase_diagram.nc."""
+    from fcsweep.analysis.pipeline import aggregate_sweep
+
+    cfg = _load(config, output)
+    click.echo(str(aggregate_sweep(cfg)))
+
+
+@cli.command()
+@CONFIG_ARG
+@OUTPUT_OPT
+@click.option("--run", "run", default=None, help="Plot one run (id or index) instead of the sweep.")
+@click.option("--frame", type=int, default=-1, show_default=True, help="Frame for snapshot plots.")
+@click.option("--outdir", type=click.Path(file_okay=False), default=None, help="Where figures go.")
+def plot(config, output, run, frame, outdir):
+    """Figures of the sweep (phase diagram) or of one run."""
+    from fcsweep.analysis.pipeline import plot_sweep
+
+    cfg = _load(config, output)
+    for p in plot_sweep(cfg, run=run, frame=frame, outdir=Path(outdir) if outdir else None):
+        click.echo(str(p))
+
+
+def main() -> None:
+    """Console entry point ``fcsweep``."""
+    cli(prog_name="fcsweep")
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()

@@ -1,0 +1,563 @@
+"""Sweep configuration: YAML -> validated, frozen run specifications.
+
+A sweep file has six top-level sections (see ``results_schema.md`` and the README)::
+
+    output: runs/phase            # or {dir: runs/phase, fields: [...], compression: gzip}
+    seed: 12345
+    replicates: 1
+    grid: {eta: [0.01, 0.1], v0: {start: 0.01, stop: 0.06, num: 6}, N: [1024]}
+    model: {density: 0.95, Dr: 0.01, dt: 0.005, modes: 6, contour_points: 40}
+    run: {steps: 1000000, sample_every: 1000, checkpoint_every: 100000, transient: 0.2}
+
+Everything is validated before anything runs; every problem raises :class:`ConfigError`
+whose message names the key, the offending value and what is allowed.
+
+Run identity
+------------
+Each grid point x replicate is a run.  Its id is the first 12 hex digits of the SHA-256 of
+the canonical JSON ``{"params": {...}, "replicate": r}``, where ``params`` holds every model
+parameter (grid and fixed values, defaults filled in) with floats written as
+``repr(float(x))`` and the integer parameters (N, modes, contour_points) as ints, keys
+sorted.  So ``eta: 1`` and ``eta: 1.0`` give the same run.  The run's seed is
+``SeedSequence([seed, int(run_id, 16)]).generate_state(1, uint64)[0] >> 1`` (a
+deterministic 63-bit integer), so every run has independent noise and the same run always
+gets the same noise.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import hashlib
+import itertools
+import json
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+import yaml
+
+__all__ = [
+    "ConfigError",
+    "SweepConfig",
+    "RunSpec",
+    "RunSettings",
+    "StoreSettings",
+    "MODEL_DEFAULTS",
+    "FIELDS",
+    "load_config",
+    "parse_config",
+    "run_id_of",
+    "seed_of",
+    "builtin_demo_path",
+]
+
+
+class ConfigError(ValueError):
+    """An invalid sweep configuration; the message names key, value and what is allowed."""
+
+
+#: Model parameters and their defaults (MODEL.md); ``None`` means "must be given".
+MODEL_DEFAULTS: dict[str, Any] = {
+    "N": None,
+    "eta": None,
+    "v0": None,
+    "Dr": 0.01,
+    "density": 0.95,
+    "dt": 5e-3,
+    "contour_points": 40,
+    "modes": 6,
+    "quadrature": "binary",
+    "R0": 1.0,
+    "mu_theta": 1.0,
+    "mu_shape": 1.0,
+}
+INT_PARAMS = ("N", "modes", "contour_points")
+STR_PARAMS = ("quadrature",)
+QUADRATURES = ("binary", "linear", "arc")
+
+#: Per-cell time series that ``output.fields`` may select (position and image always stored).
+FIELDS = ("position", "image", "theta", "shape_a", "shape_b")
+DEFAULT_FIELDS = FIELDS
+COMPRESSIONS = ("gzip", "lzf", "none")
+
+TOP_KEYS = ("output", "seed", "replicates", "grid", "model", "run", "description")
+RUN_KEYS = ("steps", "sample_every", "checkpoint_every", "transient")
+OUTPUT_KEYS = ("dir", "fields", "compression", "compression_level")
+RANGE_KEYS = ("start", "stop", "num", "log")
+
+
+@dataclass(frozen=True)
+class RunSettings:
+    """Integration length and output cadence shared by every run of a sweep."""
+
+    steps: int
+    sample_every: int
+    checkpoint_every: int
+    transient: float = 0.2
+
+    @property
+    def n_frames(self) -> int:
+        """Frames per trajectory: steps 0, sample_every, ..., steps."""
+        return self.steps // self.sample_every + 1
+
+
+@dataclass(frozen=True)
+class StoreSettings:
+    """What the trajectory file stores and how it is compressed."""
+
+    fields: tuple[str, ...] = DEFAULT_FIELDS
+    compression: str = "gzip"
+    compression_level: int = 4
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """One run: a grid point and a replicate.
+
+    Attributes
+    ----------
+    index : int
+        Position in the sweep (0-based; the ``--task-index`` of job arrays).
+    run_id : str
+        12 hex digits, a hash of the canonical parameters and the replicate.
+    params : dict
+        Every model parameter (N, eta, v0, Dr, ...) plus ``seed``.
+    replicate : int
+    swept : tuple of str
+        Names of the swept parameters, in grid order.
+    """
+
+    index: int
+    run_id: str
+    params: Mapping[str, Any]
+    replicate: int
+    swept: tuple[str, ...]
+
+    @property
+    def seed(self) -> int:
+        return int(self.params["seed"])
+
+    def model_params(self) -> dict[str, Any]:
+        """Keyword arguments of :meth:`Simulation.from_lattice` (without ``N``)."""
+        return {k: v for k, v in self.params.items() if k != "N"}
+
+    def label(self) -> str:
+        """Short human label: swept parameter values and replicate."""
+        parts = [f"{k}={self.params[k]}" for k in self.swept]
+        if self.replicate:
+            parts.append(f"rep={self.replicate}")
+        return " ".join(parts)
+
+
+@dataclass(frozen=True)
+class SweepConfig:
+    """A validated sweep.
+
+    Attributes
+    ----------
+    output : Path
+        Sweep directory (relative paths resolve against the working directory).
+    seed : int
+        Base seed.
+    replicates : int
+    grid : dict
+        Swept parameter -> tuple of values (grid order kept).
+    model : dict
+        Fixed model parameters with defaults filled in (swept ones excluded).
+    run : RunSettings
+    store : StoreSettings
+    source : str
+        Path of the YAML file, or ``"<string>"``.
+    """
+
+    output: Path
+    seed: int
+    replicates: int
+    grid: Mapping[str, tuple]
+    model: Mapping[str, Any]
+    run: RunSettings
+    store: StoreSettings = field(default_factory=StoreSettings)
+    description: str = ""
+    source: str = "<string>"
+
+    @property
+    def swept(self) -> list[str]:
+        """Swept parameter names in grid order."""
+        return list(self.grid)
+
+    def runs(self) -> list[RunSpec]:
+        """All runs: grid points in grid order (last key fastest), replicates innermost."""
+        return _expand(self)
+
+    def run_dir(self, run_id: str) -> Path:
+        """Directory of one run: ``output / "runs" / run_id``."""
+        return self.output / "runs" / run_id
+
+    def with_output(self, output: str | os.PathLike) -> "SweepConfig":
+        """Copy of this config writing to another directory (ids are unchanged)."""
+        return dataclasses.replace(self, output=Path(output))
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-able dict of the validated config (what trajectory files record)."""
+        return {
+            "output": str(self.output),
+            "seed": self.seed,
+            "replicates": self.replicates,
+            "grid": {k: list(v) for k, v in self.grid.items()},
+            "model": dict(self.model),
+            "run": dataclasses.asdict(self.run),
+            "store": {**dataclasses.asdict(self.store), "fields": list(self.store.fields)},
+            "description": self.description,
+        }
+
+
+# ----------------------------------------------------------------------------- loading
+
+
+class _UniqueKeyLoader(yaml.SafeLoader):
+    """SafeLoader that rejects duplicate mapping keys instead of keeping the last."""
+
+
+def _construct_mapping(loader, node, deep=False):
+    seen = set()
+    for key_node, _ in node.value:
+        key = loader.construct_object(key_node, deep=deep)
+        if key in seen:
+            raise ConfigError(
+                f"duplicate key {key!r} (line {key_node.start_mark.line + 1}); "
+                "each key may appear once per section"
+            )
+        seen.add(key)
+    return yaml.SafeLoader.construct_mapping(loader, node, deep=deep)
+
+
+_UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
+
+
+def builtin_demo_path() -> Path:
+    """Path of the built-in demo sweep shipped with the package (``fcsweep/data/smoke.yaml``)."""
+    from importlib.resources import files
+
+    return Path(str(files("fcsweep") / "data" / "smoke.yaml"))
+
+
+def load_config(path: str | os.PathLike) -> SweepConfig:
+    """Read and validate a sweep YAML file.
+
+    Raises
+    ------
+    ConfigError
+        If the file is missing, not YAML, or any value is invalid.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise ConfigError(f"cannot read config file {str(path)!r}: {exc.strerror}") from None
+    return parse_config(text, source=str(path))
+
+
+def parse_config(text: str, source: str = "<string>") -> SweepConfig:
+    """Validate a sweep given as YAML text. See :func:`load_config`."""
+    try:
+        data = yaml.load(text, Loader=_UniqueKeyLoader)
+    except ConfigError:
+        raise
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        problem = getattr(exc, "problem", None) or str(exc)
+        raise ConfigError(f"{source}: not valid YAML{where}: {problem}") from None
+    try:
+        return _validate(data, source)
+    except ConfigError as exc:
+        raise ConfigError(f"{source}: {exc}") from None
+
+
+# -------------------------------------------------------------------------- validation
+
+
+def _unknown(key: str, allowed, where: str) -> ConfigError:
+    close = difflib.get_close_matches(str(key), list(allowed), n=1, cutoff=0.6)
+    if not close:
+        close = [a for a in allowed if str(a).lower() == str(key).lower()]
+    hint = f"; did you mean {close[0]!r}?" if close else ""
+    return ConfigError(
+        f"unknown key {where}{key!r}{hint} (allowed: {', '.join(map(str, allowed))})"
+    )
+
+
+def _check_keys(d: Mapping, allowed, where: str) -> None:
+    for k in d:
+        if k not in allowed:
+            raise _unknown(k, allowed, where)
+
+
+def _is_int(x) -> bool:
+    return isinstance(x, (int, np.integer)) and not isinstance(x, bool)
+
+
+def _is_real(x) -> bool:
+    return isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, bool)
+
+
+def _int(value, key: str, *, minimum: int | None = None) -> int:
+    if isinstance(value, float) and value.is_integer() and abs(value) < 2**53:
+        value = int(value)
+    if not _is_int(value):
+        raise ConfigError(f"{key} = {value!r} must be an integer")
+    value = int(value)
+    if minimum is not None and value < minimum:
+        raise ConfigError(f"{key} = {value} must be an integer >= {minimum}")
+    return value
+
+
+def _real(value, key: str) -> float:
+    if not _is_real(value):
+        raise ConfigError(f"{key} = {value!r} must be a number")
+    value = float(value)
+    if not math.isfinite(value):
+        raise ConfigError(f"{key} = {value!r} must be a finite number")
+    return value
+
+
+def _check_param(name: str, value, where: str) -> Any:
+    """Validate and canonicalise one model parameter value."""
+    key = f"{where}.{name}"
+    if name in STR_PARAMS:
+        if not isinstance(value, str) or value not in QUADRATURES:
+            raise ConfigError(f"{key} = {value!r} is not allowed; choose one of {list(QUADRATURES)}")
+        return value
+    if name == "N":
+        n = _int(value, key, minimum=4)
+        from fcsweep.model.lattice import lattice_side
+
+        try:
+            lattice_side(n)
+        except ValueError as exc:
+            raise ConfigError(f"{key} = {value!r}: {exc}") from None
+        return n
+    if name == "modes":
+        m = _int(value, key, minimum=0)
+        if m == 1 or m > 32:
+            raise ConfigError(f"{key} = {m} is not allowed; modes is 0 (rigid discs) or 2..32")
+        return m
+    if name == "contour_points":
+        return _int(value, key, minimum=8)
+    x = _real(value, key)
+    if name in ("eta", "v0", "Dr") and x < 0:
+        raise ConfigError(f"{key} = {value!r} is out of range; {name} must be >= 0")
+    if name in ("mu_theta", "mu_shape") and x < 0:
+        raise ConfigError(f"{key} = {value!r} is out of range; {name} must be >= 0")
+    if name == "density" and not 0.0 < x < 1.0:
+        raise ConfigError(f"{key} = {value!r} is out of range; density must lie in (0, 1)")
+    if name in ("dt", "R0") and x <= 0:
+        raise ConfigError(f"{key} = {value!r} is out of range; {name} must be > 0")
+    return x
+
+
+def _grid_values(name: str, spec) -> tuple:
+    key = f"grid.{name}"
+    if isinstance(spec, Mapping):
+        _check_keys(spec, RANGE_KEYS, f"in {key}: ")
+        missing = [k for k in ("start", "stop", "num") if k not in spec]
+        if missing:
+            raise ConfigError(
+                f"{key} = {dict(spec)!r} is missing {missing}; a range is {{start, stop, num[, log]}}"
+            )
+        start = _real(spec["start"], f"{key}.start")
+        stop = _real(spec["stop"], f"{key}.stop")
+        num = _int(spec["num"], f"{key}.num", minimum=1)
+        log = spec.get("log", False)
+        if not isinstance(log, bool):
+            raise ConfigError(f"{key}.log = {log!r} must be true or false")
+        if name in STR_PARAMS:
+            raise ConfigError(f"{key} = {dict(spec)!r}: {name} takes a list of names, not a range")
+        if log:
+            if start <= 0 or stop <= 0:
+                raise ConfigError(f"{key} = {dict(spec)!r}: a log range needs start > 0 and stop > 0")
+            values = np.geomspace(start, stop, num)
+        else:
+            values = np.linspace(start, stop, num)
+        values = [float(v) for v in values]
+        if name in INT_PARAMS:
+            if any(not float(v).is_integer() for v in values):
+                raise ConfigError(
+                    f"{key} = {dict(spec)!r} gives non-integer values {values}; "
+                    f"{name} must be integers (use a list)"
+                )
+            values = [int(v) for v in values]
+    elif isinstance(spec, (list, tuple)):
+        if len(spec) == 0:
+            raise ConfigError(f"{key} = [] is empty; give at least one value")
+        values = list(spec)
+    elif isinstance(spec, (str, int, float)) and not isinstance(spec, bool):
+        values = [spec]
+    else:
+        raise ConfigError(f"{key} = {spec!r} must be a list of values or {{start, stop, num}}")
+    out = tuple(_check_param(name, v, "grid") for v in values)
+    canon = [_canon_value(name, v) for v in out]
+    if len(set(canon)) != len(canon):
+        dup = next(c for c in canon if canon.count(c) > 1)
+        raise ConfigError(f"{key} = {list(values)!r} repeats the value {dup}; each value once")
+    return out
+
+
+def _validate(data, source: str) -> SweepConfig:
+    if data is None:
+        raise ConfigError("the file is empty; a sweep needs at least 'grid' and 'run'")
+    if not isinstance(data, Mapping):
+        raise ConfigError(f"top level must be a mapping of sections, got {type(data).__name__}")
+    _check_keys(data, TOP_KEYS, "")
+    for req in ("output", "grid", "run"):
+        if req not in data:
+            raise ConfigError(f"missing required section {req!r}")
+
+    # output
+    out = data["output"]
+    store = StoreSettings()
+    if isinstance(out, Mapping):
+        _check_keys(out, OUTPUT_KEYS, "in output: ")
+        if "dir" not in out:
+            raise ConfigError("output.dir is missing; give the sweep directory")
+        fields = out.get("fields", list(DEFAULT_FIELDS))
+        if not isinstance(fields, (list, tuple)) or not all(isinstance(f, str) for f in fields):
+            raise ConfigError(f"output.fields = {fields!r} must be a list of names from {list(FIELDS)}")
+        for f in fields:
+            if f not in FIELDS:
+                raise _unknown(f, FIELDS, "in output.fields: ")
+        fields = tuple(f for f in FIELDS if f in set(fields) | {"position", "image"})
+        comp = out.get("compression", "gzip")
+        if comp not in COMPRESSIONS:
+            raise ConfigError(f"output.compression = {comp!r} is not allowed; choose one of {list(COMPRESSIONS)}")
+        level = _int(out.get("compression_level", 4), "output.compression_level", minimum=0)
+        if level > 9:
+            raise ConfigError(f"output.compression_level = {level} is out of range; allowed 0..9")
+        store = StoreSettings(fields=fields, compression=comp, compression_level=level)
+        out = out["dir"]
+    if not isinstance(out, str) or not out.strip():
+        raise ConfigError(f"output = {out!r} must be a directory path (string)")
+    output = Path(os.path.expanduser(out))
+
+    seed = _int(data.get("seed", 0), "seed", minimum=0)
+    if seed >= 2**63:
+        raise ConfigError(f"seed = {seed} is out of range; allowed 0 <= seed < 2**63")
+    replicates = _int(data.get("replicates", 1), "replicates", minimum=1)
+    description = data.get("description", "")
+    if not isinstance(description, str):
+        raise ConfigError(f"description = {description!r} must be a string")
+
+    # grid
+    grid_in = data["grid"]
+    if not isinstance(grid_in, Mapping):
+        raise ConfigError(f"grid = {grid_in!r} must be a mapping of parameter -> values")
+    if len(grid_in) == 0:
+        raise ConfigError("grid = {} is empty; sweep at least one model parameter")
+    _check_keys(grid_in, list(MODEL_DEFAULTS), "in grid: ")
+    grid = {str(k): _grid_values(str(k), v) for k, v in grid_in.items()}
+
+    # model
+    model_in = data.get("model") or {}
+    if not isinstance(model_in, Mapping):
+        raise ConfigError(f"model = {model_in!r} must be a mapping of parameter -> value")
+    _check_keys(model_in, list(MODEL_DEFAULTS), "in model: ")
+    model: dict[str, Any] = {}
+    for name, default in MODEL_DEFAULTS.items():
+        if name in grid:
+            if name in model_in:
+                raise ConfigError(
+                    f"model.{name} = {model_in[name]!r} is also swept in grid.{name}; "
+                    "give it in one place only"
+                )
+            continue
+        if name in model_in:
+            model[name] = _check_param(name, model_in[name], "model")
+        elif default is None:
+            raise ConfigError(f"model parameter {name!r} is missing; give it in 'model' or 'grid'")
+        else:
+            model[name] = default
+
+    # run
+    run_in = data["run"]
+    if not isinstance(run_in, Mapping):
+        raise ConfigError(f"run = {run_in!r} must be a mapping")
+    _check_keys(run_in, RUN_KEYS, "in run: ")
+    for req in ("steps", "sample_every"):
+        if req not in run_in:
+            raise ConfigError(f"run.{req} is missing")
+    steps = _int(run_in["steps"], "run.steps", minimum=1)
+    sample_every = _int(run_in["sample_every"], "run.sample_every", minimum=1)
+    if steps % sample_every:
+        raise ConfigError(
+            f"run.steps = {steps} is not a multiple of run.sample_every = {sample_every}; "
+            "steps must be a whole number of frames"
+        )
+    checkpoint_every = _int(run_in.get("checkpoint_every", steps), "run.checkpoint_every", minimum=1)
+    if checkpoint_every % sample_every:
+        raise ConfigError(
+            f"run.checkpoint_every = {checkpoint_every} is not a multiple of run.sample_every = "
+            f"{sample_every}; checkpoints are taken on frame boundaries"
+        )
+    transient = _real(run_in.get("transient", 0.2), "run.transient")
+    if not 0.0 <= transient < 1.0:
+        raise ConfigError(f"run.transient = {transient!r} is out of range; allowed 0 <= transient < 1")
+    run = RunSettings(steps, sample_every, checkpoint_every, transient)
+
+    return SweepConfig(
+        output=output,
+        seed=seed,
+        replicates=replicates,
+        grid=grid,
+        model=model,
+        run=run,
+        store=store,
+        description=description,
+        source=source,
+    )
+
+
+# ---------------------------------------------------------------------------- run ids
+
+
+def _canon_value(name: str, value) -> Any:
+    if name in INT_PARAMS:
+        return int(value)
+    if name in STR_PARAMS:
+        return str(value)
+    return repr(float(value))
+
+
+def run_id_of(params: Mapping[str, Any], replicate: int) -> str:
+    """Stable 12-hex-digit id of a run from its model parameters and replicate.
+
+    ``seed`` (if present in ``params``) is ignored: the seed derives from the id.
+    """
+    canon = {k: _canon_value(k, v) for k, v in params.items() if k != "seed"}
+    blob = json.dumps({"params": canon, "replicate": int(replicate)}, sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(blob.encode()).hexdigest()[:12]
+
+
+def seed_of(base_seed: int, run_id: str) -> int:
+    """Deterministic 63-bit seed of a run: ``SeedSequence([base_seed, int(run_id, 16)])``."""
+    ss = np.random.SeedSequence([int(base_seed), int(run_id, 16) % 2**63])
+    return int(ss.generate_state(1, dtype=np.uint64)[0] >> np.uint64(1))
+
+
+def _expand(cfg: SweepConfig) -> list[RunSpec]:
+    names = list(cfg.grid)
+    specs = []
+    index = 0
+    for combo in itertools.product(*(cfg.grid[n] for n in names)):
+        for rep in range(cfg.replicates):
+            params = dict(cfg.model)
+            params.update(zip(names, combo))
+            params = {k: params[k] for k in MODEL_DEFAULTS}  # fixed key order
+            rid = run_id_of(params, rep)
+            params["seed"] = seed_of(cfg.seed, rid)
+            specs.append(RunSpec(index, rid, params, rep, tuple(names)))
+            index += 1
+    return specs

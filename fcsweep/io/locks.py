@@ -1,0 +1,199 @@
+"""Per-run lock files that work on local and network file systems.
+
+A lock is a small JSON file (``run.lock``) created with ``O_CREAT | O_EXCL`` (atomic on
+POSIX file systems and on NFSv3+), holding ``pid``, ``host``, ``started`` and a random
+``token``.  The holder refreshes the file's mtime (:meth:`RunLock.heartbeat`) while it works.
+
+A lock is *stale*, and may be taken over, when
+
+* its host is this host and its pid no longer exists (a killed process), or
+* its heartbeat (mtime) is older than ``stale_after`` seconds (default 900, environment
+  variable ``FCSWEEP_LOCK_STALE_SECONDS``): the only test available across hosts, since a
+  pid on another node cannot be checked; also covers a reused pid on this host.
+
+Taking over is serialised by a second short-lived ``O_EXCL`` file (``run.lock.break``) so
+that two processes that both find the same stale lock cannot both win, and a process never
+removes a lock other than the one it judged stale (the token is compared again).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import secrets
+import socket
+import time
+from pathlib import Path
+from typing import Any
+
+__all__ = ["RunLock", "LockHeld", "lock_info", "lock_is_stale", "pid_alive", "DEFAULT_STALE_AFTER"]
+
+DEFAULT_STALE_AFTER = float(os.environ.get("FCSWEEP_LOCK_STALE_SECONDS", 900))
+_BREAK_STALE_AFTER = 60.0
+
+
+class LockHeld(RuntimeError):
+    """The run is locked by another live process."""
+
+    def __init__(self, path, info: dict[str, Any] | None):
+        self.info = info or {}
+        who = f"pid {self.info.get('pid')} on {self.info.get('host')}" if info else "another process"
+        super().__init__(f"{path} is held by {who} since {self.info.get('started', '?')}")
+
+
+def pid_alive(pid: int) -> bool:
+    """Whether a process with this pid exists on this host."""
+    if pid <= 0:
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def lock_info(path) -> dict[str, Any] | None:
+    """Contents of a lock file plus its heartbeat age, or ``None`` if absent/unreadable."""
+    path = Path(path)
+    try:
+        st = path.stat()
+        with open(path) as fh:
+            info = json.load(fh)
+    except (OSError, ValueError):
+        try:
+            st = path.stat()
+        except OSError:
+            return None
+        # Present but empty/garbled: the creator died between create and write.
+        return {"pid": -1, "host": "?", "token": None, "age": time.time() - st.st_mtime, "garbled": True}
+    if not isinstance(info, dict):
+        info = {}
+    info["age"] = time.time() - st.st_mtime
+    return info
+
+
+def lock_is_stale(info: dict[str, Any] | None, stale_after: float = DEFAULT_STALE_AFTER) -> bool:
+    """Whether a lock (as returned by :func:`lock_info`) may be taken over."""
+    if info is None:
+        return True
+    if info.get("garbled"):
+        return info["age"] > 5.0
+    if info.get("host") == socket.gethostname():
+        if not pid_alive(int(info.get("pid", -1))):
+            return True
+    return info["age"] > stale_after
+
+
+class RunLock:
+    """Exclusive lock of one run directory.
+
+    Examples
+    --------
+    >>> lock = RunLock(run_dir / "run.lock")       # doctest: +SKIP
+    >>> if lock.acquire():                          # doctest: +SKIP
+    ...     try: work(); lock.heartbeat()
+    ...     finally: lock.release()
+    """
+
+    def __init__(self, path, stale_after: float = DEFAULT_STALE_AFTER):
+        self.path = Path(path)
+        self.stale_after = float(stale_after)
+        self.token: str | None = None
+        self.held_by: dict[str, Any] | None = None
+        self.took_over: dict[str, Any] | None = None
+        self._last_beat = 0.0
+
+    def _create(self) -> bool:
+        token = secrets.token_hex(8)
+        try:
+            fd = os.open(self.path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+        except FileExistsError:
+            return False
+        info = {
+            "pid": os.getpid(),
+            "host": socket.gethostname(),
+            "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+            "token": token,
+        }
+        with os.fdopen(fd, "w") as fh:
+            json.dump(info, fh)
+            fh.flush()
+            os.fsync(fh.fileno())
+        self.token = token
+        self._last_beat = time.time()
+        return True
+
+    def _break_stale(self, seen: dict[str, Any]) -> None:
+        brk = self.path.with_name(self.path.name + ".break")
+        try:
+            fd = os.open(brk, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+        except FileExistsError:
+            try:
+                if time.time() - brk.stat().st_mtime > _BREAK_STALE_AFTER:
+                    brk.unlink()
+            except OSError:
+                pass
+            return
+        os.close(fd)
+        try:
+            now = lock_info(self.path)
+            if now is not None and now.get("token") == seen.get("token") and lock_is_stale(now, self.stale_after):
+                self.path.unlink()
+                self.took_over = seen
+        except OSError:
+            pass
+        finally:
+            try:
+                brk.unlink()
+            except OSError:
+                pass
+
+    def acquire(self) -> bool:
+        """Try to take the lock (taking over a stale one); ``False`` if a live process holds it."""
+        for _ in range(5):
+            if self._create():
+                return True
+            info = lock_info(self.path)
+            if info is None:
+                continue  # vanished in between: try again
+            if not lock_is_stale(info, self.stale_after):
+                self.held_by = info
+                return False
+            self._break_stale(info)
+        info = lock_info(self.path)
+        self.held_by = info
+        return False
+
+    def heartbeat(self, min_interval: float = 10.0) -> None:
+        """Refresh the lock's mtime (at most every ``min_interval`` seconds)."""
+        now = time.time()
+        if self.token is None or now - self._last_beat < min_interval:
+            return
+        try:
+            os.utime(self.path)
+        except OSError:
+            pass
+        self._last_beat = now
+
+    def release(self) -> None:
+        """Remove the lock if it is still ours."""
+        if self.token is None:
+            return
+        info = lock_info(self.path)
+        if info is not None and info.get("token") == self.token:
+            try:
+                self.path.unlink()
+            except OSError:
+                pass
+        self.token = None
+
+    def __enter__(self):
+        if not self.acquire():
+            raise LockHeld(self.path, self.held_by)
+        return self
+
+    def __exit__(self, *exc):
+        self.release()
+        return False
