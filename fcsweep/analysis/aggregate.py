@@ -1,0 +1,260 @@
+"""Collect per-run ``analysis.h5`` files into one CF-1.8 phase-diagram dataset.
+
+Dimensions: ``eta``, ``v0``, ``N`` (always, length 1 when not swept), any other swept
+parameter in grid order, then ``replicate``; curves add their own coordinate
+(``lag_time``, ``r``, ``dx``, ``q_bin``, ``cluster_size``).
+
+Curve alignment: the coordinate of a curve is the sorted union of the values found in
+the runs (lags are multiples of the frame interval, r and dx are bin centres
+``(k + 1/2) * width`` and cluster sizes are integers, so runs of different N or box share
+values exactly); a run lacking a value is NaN there.  No interpolation.
+
+Integer labels (``phase``, ``percolated``, ``status``) are int8 with CF ``flag_values``
+and ``flag_meanings``; missing or failed runs are NaN (floats) or the "unknown" flag, and
+``status`` says why.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from fcsweep import __version__
+from fcsweep.analysis.phase import PERCOLATION_FLAGS, PHASE_FLAGS, flag_attrs
+from fcsweep.analysis.pipeline import (ANALYSIS_FILE, CURVES, DATASET_FILE, STATUS_FILE,
+                                       _read_status, read_analysis)
+
+CORE_DIMS = ("eta", "v0", "N")
+STATUS_FLAGS = {0: "analysed", 1: "not_analysed", 2: "failed", 3: "running", 4: "pending",
+                5: "missing"}
+_RUN_STATUS = {"failed": 2, "running": 3, "pending": 4}
+
+#: (long_name, units) of every coordinate and variable; lengths in R0, times in the
+#: model's time unit (R0 / (mobility x force unit)), both reduced, hence units "1".
+META = {
+    "eta": ("membrane tension eta", "1"),
+    "v0": ("self-propulsion speed v0 (R0 per time unit)", "1"),
+    "N": ("number of cells", "1"),
+    "replicate": ("replicate index (independent noise)", "1"),
+    "lag_time": ("MSD lag time (model time units)", "1"),
+    "r": ("pair distance, bin centre (units of R0)", "1"),
+    "dx": ("pair separation along the mean hexatic axis, bin centre (units of R0)", "1"),
+    "q_bin": ("shape index q, bin centre", "1"),
+    "q_bin_bounds": ("shape index q, bin edges", "1"),
+    "cluster_size": ("defect cluster size (cells)", "1"),
+    "D_eff": ("effective diffusion D_s / D0, D0 = v0^2 / (2 Dr)", "1"),
+    "D_eff_err": ("standard error of D_eff (block estimate over cell subsets)", "1"),
+    "D_s": ("long-time self-diffusion coefficient (R0^2 per time unit)", "1"),
+    "D_s_err": ("standard error of D_s", "1"),
+    "D0": ("free active diffusion v0^2 / (2 Dr) (R0^2 per time unit)", "1"),
+    "fit_t_min": ("start of the MSD fit window (time units)", "1"),
+    "fit_t_max": ("end of the MSD fit window (time units)", "1"),
+    "q_mean": ("mean shape index <q> over cells and analysed frames", "1"),
+    "q_std": ("standard deviation of the shape index", "1"),
+    "q_frac_above": ("fraction of cells with q > 3.81", "1"),
+    "q_hist": ("probability density of the shape index", "1"),
+    "rho_d": ("defect fraction: cells with != 6 Voronoi neighbours / N", "1"),
+    "rho_d_err": ("standard error of rho_d over analysed frames", "1"),
+    "largest_cluster_fraction": ("largest defect cluster size / N, frame average", "1"),
+    "largest_cluster_fraction_err": ("standard error of largest_cluster_fraction", "1"),
+    "cluster_size_distribution": ("number of defect clusters of each size, pooled over the "
+                                  "n_structure_frames analysed frames", "1"),
+    "psi6": ("global hexatic order |Psi6| = |<psi6_i>|, frame average", "1"),
+    "psi6_err": ("standard error of psi6 over analysed frames", "1"),
+    "msd": ("drift-subtracted mean squared displacement (R0^2)", "1"),
+    "G6": ("bond-orientational correlation Re <psi6_i psi6_j*>(r)", "1"),
+    "Gr": ("translational correlation G_r(dx, 0) along the mean hexatic axis, ideal gas = 1", "1"),
+    "phase": ("phase label: solid if D_eff < 1e-3, else soft fluid if <q> > 3.81, else fluid", "1"),
+    "percolated": ("defect percolation label: rho_d > 1/2", "1"),
+    "status": ("run and analysis status", "1"),
+    "n_frames": ("frames after the transient used for the MSD", "1"),
+    "n_structure_frames": ("frames used for Voronoi, defect and order statistics", "1"),
+    "t_start": ("time of the first analysed frame", "1"),
+    "t_end": ("time of the last analysed frame", "1"),
+    "run_id": ("run identifier (directory name under runs/)", ""),
+}
+SCALAR_VARS = ("D_eff", "D_eff_err", "D_s", "D_s_err", "D0", "fit_t_min", "fit_t_max",
+               "q_mean", "q_std", "q_frac_above", "rho_d", "rho_d_err",
+               "largest_cluster_fraction", "largest_cluster_fraction_err", "psi6", "psi6_err",
+               "n_frames", "t_start", "t_end")
+
+
+def _key(x):
+    """Hashable, float-noise-free key of a coordinate value."""
+    if isinstance(x, (float, np.floating)):
+        return float(f"{float(x):.12g}")
+    if isinstance(x, (np.integer,)):
+        return int(x)
+    return x
+
+
+def _coord_values(vals):
+    vals = sorted({_key(v) for v in vals}, key=lambda v: (isinstance(v, str), v))
+    if all(isinstance(v, (int, np.integer)) and not isinstance(v, bool) for v in vals):
+        return np.array(vals, dtype=np.int64)
+    if all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in vals):
+        return np.array(vals, dtype=np.float64)
+    return np.array([str(v) for v in vals], dtype=object)
+
+
+def _dims(config) -> list[str]:
+    swept = list(config.swept)
+    return list(CORE_DIMS) + [s for s in swept if s not in CORE_DIMS] + ["replicate"]
+
+
+def _attrs(name: str) -> dict:
+    ln, un = META[name]
+    out = {"long_name": ln}
+    if un:
+        out["units"] = un
+    return out
+
+
+def build_dataset(config) -> xr.Dataset:
+    """Phase-diagram dataset of a sweep from its runs' ``analysis.h5`` files.
+
+    Parameters
+    ----------
+    config : SweepConfig
+        From :func:`fcsweep.config.load_config`.
+
+    Returns
+    -------
+    xarray.Dataset
+    """
+    runs = list(config.runs())
+    dims = _dims(config)
+    coords = {}
+    for d in dims:
+        if d == "replicate":
+            coords[d] = np.arange(max(int(getattr(config, "replicates", 1)),
+                                      1 + max((r.replicate for r in runs), default=0)), dtype=np.int64)
+        else:
+            coords[d] = _coord_values([r.params.get(d, np.nan) for r in runs])
+    index = {d: {_key(v): i for i, v in enumerate(coords[d])} for d in dims}
+    shape = tuple(len(coords[d]) for d in dims)
+
+    # read everything first (curve coordinates are unions over runs)
+    entries = []
+    status = np.full(shape, 5, dtype=np.int8)
+    run_ids = np.full(shape, "", dtype=object)
+    settings = None
+    for spec in runs:
+        loc = tuple(index[d][_key(spec.replicate if d == "replicate" else spec.params.get(d, np.nan))]
+                    for d in dims)
+        run_ids[loc] = spec.run_id
+        rd = Path(config.output) / "runs" / spec.run_id
+        st = _read_status(rd)
+        if st is None:
+            status[loc] = 5
+            continue
+        s = st.get("status")
+        if s != "done":
+            status[loc] = _RUN_STATUS.get(s, 5)
+            continue
+        try:
+            res = read_analysis(rd / ANALYSIS_FILE)
+        except (OSError, KeyError, ValueError):
+            status[loc] = 1
+            continue
+        status[loc] = 0
+        settings = settings or res["settings"]
+        entries.append((loc, res))
+
+    curve_coords = {}
+    for name, cname in CURVES.items():
+        vals = set()
+        for _, res in entries:
+            if name in res["curves"]:
+                x, y = res["curves"][name]
+                if name == "cluster_size_distribution":  # trim trailing zero counts
+                    nz = np.flatnonzero(np.asarray(y) > 0)
+                    x = x[: (nz[-1] + 1 if nz.size else 1)]
+                vals.update(_key(v) for v in np.asarray(x).tolist())
+        cc = np.array(sorted(vals), dtype=np.int64 if cname == "cluster_size" else np.float64)
+        if cc.size == 0:
+            cc = np.array([1], dtype=np.int64) if cname == "cluster_size" else np.array([np.nan])
+        curve_coords[cname] = cc
+    cindex = {c: {_key(v): i for i, v in enumerate(cc.tolist())} for c, cc in curve_coords.items()}
+
+    data = {v: np.full(shape, np.nan) for v in SCALAR_VARS}
+    data["n_structure_frames"] = np.full(shape, np.nan)
+    phase = np.full(shape, -1, dtype=np.int8)
+    perc = np.full(shape, -1, dtype=np.int8)
+    curves = {n: np.full(shape + (len(curve_coords[c]),), np.nan) for n, c in CURVES.items()}
+    for loc, res in entries:
+        sc = res["scalars"]
+        for v in SCALAR_VARS:
+            data[v][loc] = sc.get(v, np.nan)
+        sset = res["settings"]
+        nf = sc.get("n_frames", np.nan)
+        data["n_structure_frames"][loc] = min(nf, sset.get("structure_frames", nf)) if np.isfinite(nf) else np.nan
+        phase[loc] = int(sc["phase"]) if np.isfinite(sc.get("phase", np.nan)) else -1
+        perc[loc] = int(sc["percolated"]) if np.isfinite(sc.get("percolated", np.nan)) else -1
+        for n, c in CURVES.items():
+            if n not in res["curves"]:
+                continue
+            x, y = res["curves"][n]
+            ix = cindex[c]
+            for xv, yv in zip(np.asarray(x).tolist(), np.asarray(y).tolist()):
+                j = ix.get(_key(xv))
+                if j is not None:
+                    curves[n][loc + (j,)] = yv
+
+    ds = xr.Dataset(coords={d: (d, coords[d], _attrs(d)) for d in dims})
+    for c, cc in curve_coords.items():
+        ds.coords[c] = (c, cc, _attrs(c))
+    if settings and "q_edges" in settings:
+        lo, hi, nb = settings["q_edges"]
+        e = np.linspace(lo, hi, int(nb) + 1)
+        if len(e) - 1 == ds.sizes["q_bin"]:
+            ds.coords["q_bin"].attrs["bounds"] = "q_bin_bounds"
+            ds["q_bin_bounds"] = (("q_bin", "nv"), np.stack([e[:-1], e[1:]], axis=1), _attrs("q_bin_bounds"))
+    for v, arr in data.items():
+        ds[v] = (dims, arr, _attrs(v))
+    for n, c in CURVES.items():
+        ds[n] = (dims + [c], curves[n], _attrs(n))
+    ds["phase"] = (dims, phase, {**_attrs("phase"), **flag_attrs(PHASE_FLAGS)})
+    ds["percolated"] = (dims, perc, {**_attrs("percolated"), **flag_attrs(PERCOLATION_FLAGS)})
+    ds["status"] = (dims, status, {**_attrs("status"), **flag_attrs(STATUS_FLAGS)})
+    ds["run_id"] = (dims, run_ids, _attrs("run_id"))
+    now = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+    cfg = config.to_dict() if hasattr(config, "to_dict") else {}
+    ds.attrs = {
+        "Conventions": "CF-1.8",
+        "title": "fcsweep phase-diagram dataset (Fourier contour model of active deformable cells)",
+        "source": f"fcsweep {__version__}",
+        "fcsweep_version": __version__,
+        "history": f"{now} fcsweep aggregate {getattr(config, 'source', '')}".strip(),
+        "references": "Fourier contour cell model; observables as defined in MODEL.md",
+        "config": json.dumps(cfg, sort_keys=True, default=str),
+        "analysis_settings": json.dumps(settings or {}, sort_keys=True),
+        "curve_alignment": "curve coordinates are the union over runs; NaN where a run has no value (no interpolation)",
+        "n_runs": np.int64(len(runs)),
+        "n_analysed": np.int64(len(entries)),
+    }
+    return ds
+
+
+def write_dataset(ds: xr.Dataset, path) -> Path:
+    """Write ``ds`` as NetCDF4 atomically (temporary file, then rename)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    enc = {}
+    for v in ds.variables:
+        if ds[v].dtype.kind == "f":
+            enc[v] = {"_FillValue": np.nan if v not in ds.coords else None}
+    ds.to_netcdf(tmp, format="NETCDF4", engine="netcdf4", encoding=enc)
+    os.replace(tmp, path)
+    return path
+
+
+def aggregate_sweep(config) -> Path:
+    """Build the dataset of a sweep and write ``<output>/phase_diagram.nc``."""
+    return write_dataset(build_dataset(config), Path(config.output) / DATASET_FILE)

@@ -1,0 +1,355 @@
+"""File-level analysis pipeline: one run -> analysis.h5; a sweep -> phase_diagram.nc; figures.
+
+Entry points called by the CLI (``fcsweep analyze | aggregate | plot``):
+
+- :func:`analyze_run` reads one trajectory, computes every observable of MODEL.md over the
+  frames after the transient and writes ``analysis.h5`` beside it (atomically);
+- :func:`analyze_sweep` does that for every finished run of a sweep, in parallel,
+  skipping runs analysed with the same settings unless ``force``;
+- :func:`aggregate_sweep` collects the per-run files into one CF-style NetCDF dataset;
+- :func:`plot_sweep` draws the phase diagram and companion figures, or one snapshot.
+
+Analysis settings (``DEFAULT_SETTINGS``; stored with every result):
+
+- ``transient``: fraction of the recorded frames discarded at the start;
+- MSD on all post-transient frames; D_s fitted over lags in ``fit_window`` x span, error
+  from ``n_blocks`` disjoint cell subsets (see :mod:`fcsweep.analysis.diffusion`);
+- q on up to ``shape_frames`` evenly spaced frames; Voronoi defects and clusters and
+  |Psi6| on up to ``structure_frames`` frames; G6 and Gr on up to
+  ``correlation_frames`` frames (they cost O(N * pairs within L/2));
+- lengths of G6(r) and Gr(dx, 0) in units of R0, bin widths ``g6_dr`` and ``gr_dx``.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import os
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from fcsweep import __version__
+from fcsweep.analysis import diffusion, order, shapes, voronoi
+from fcsweep.analysis.msd import log_lag_indices, msd_curve
+from fcsweep.analysis.phase import percolation_code, phase_code
+from fcsweep.analysis.trajectory import TrajectoryError, open_trajectory
+
+ANALYSIS_FILE = "analysis.h5"
+TRAJECTORY_FILE = "trajectory.h5"
+STATUS_FILE = "status.json"
+DATASET_FILE = "phase_diagram.nc"
+
+DEFAULT_SETTINGS = {
+    "transient": 0.2,
+    "fit_window": [0.1, 0.5],
+    "n_blocks": 16,
+    "subtract_drift": True,
+    "msd_lags": 120,
+    "shape_frames": 200,
+    "structure_frames": 100,
+    "correlation_frames": 10,
+    "q_edges": [3.54, 5.04, 150],
+    "q_points": shapes.Q_POINTS,
+    "g6_dr": 0.1,
+    "gr_dx": 0.2,
+}
+
+#: Scalar observables stored as attributes of ``/observables`` in analysis.h5.
+SCALARS = ("D_s", "D_s_err", "D0", "D_eff", "D_eff_err", "fit_t_min", "fit_t_max",
+           "q_mean", "q_std", "q_frac_above", "rho_d", "rho_d_err",
+           "largest_cluster_fraction", "largest_cluster_fraction_err", "psi6", "psi6_err",
+           "n_frames", "t_start", "t_end", "phase", "percolated")
+#: Curves stored as datasets of ``/curves``: name -> coordinate dataset name.
+CURVES = {"msd": "lag_time", "q_hist": "q_bin", "G6": "r", "Gr": "dx",
+          "cluster_size_distribution": "cluster_size"}
+
+
+class AnalysisError(RuntimeError):
+    """A run that cannot be analysed (too few frames, missing fields, ...)."""
+
+
+def _evenly(indices: np.ndarray, k: int) -> np.ndarray:
+    """At most ``k`` evenly spaced entries of ``indices`` (always including the last)."""
+    if k <= 0 or len(indices) <= k:
+        return np.asarray(indices)
+    pick = np.unique(np.round(np.linspace(0, len(indices) - 1, k)).astype(int))
+    return np.asarray(indices)[pick]
+
+
+def settings_with(overrides=None, *, transient=None) -> dict:
+    """Analysis settings: the defaults updated by ``overrides`` (unknown keys rejected)."""
+    s = json.loads(json.dumps(DEFAULT_SETTINGS))
+    for k, v in dict(overrides or {}).items():
+        if k not in s:
+            raise ValueError(f"unknown analysis setting {k!r}; allowed: {sorted(s)}")
+        s[k] = v
+    if transient is not None:
+        s["transient"] = float(transient)
+    if not 0.0 <= float(s["transient"]) < 1.0:
+        raise ValueError(f"transient = {s['transient']} must lie in [0, 1)")
+    return s
+
+
+# ------------------------------------------------------------------ one run: compute
+
+def compute_observables(traj, settings: dict) -> tuple[dict, dict, dict]:
+    """All observables of one opened trajectory.
+
+    Returns
+    -------
+    scalars : dict
+        name -> float (see ``SCALARS``).
+    curves : dict
+        name -> (coordinate values, values).
+    extra : dict
+        ``n_sides_counts`` and the analysed frame indices.
+    """
+    T = traj.n_frames
+    first = int(np.ceil(float(settings["transient"]) * (T - 1) - 1e-9))
+    frames = np.arange(first, T)
+    if frames.size < 3:
+        raise AnalysisError(f"{traj.path}: only {frames.size} frames after the transient "
+                            f"({T} recorded, transient {settings['transient']}); need >= 3")
+    p = traj.params
+    R0 = float(p.get("R0", 1.0))
+    v0, Dr = float(p.get("v0", np.nan)), float(p.get("Dr", np.nan))
+    box = traj.box
+    N = traj.n_cells
+    time = traj.time[frames] - traj.time[frames[0]]
+    if np.any(np.diff(time) <= 0):
+        raise AnalysisError(f"{traj.path}: frame times are not increasing")
+    if not np.allclose(np.diff(time), time[1] - time[0], rtol=1e-6, atol=1e-12):
+        raise AnalysisError(f"{traj.path}: frames are not equally spaced in time")
+    sc, cv = {}, {}
+
+    # --- MSD and D_eff
+    x = traj.unwrapped(frames)
+    if not np.all(np.isfinite(x)):
+        raise AnalysisError(f"{traj.path}: non-finite positions after the transient")
+    msd, blocks = msd_curve(x, subtract_drift=bool(settings["subtract_drift"]),
+                            n_blocks=int(settings["n_blocks"]))
+    fit = diffusion.fit_diffusion(time, msd, window=settings["fit_window"], msd_blocks=blocks)
+    D_eff, D_eff_err = diffusion.effective_diffusion(fit.D, fit.D_err, v0, Dr)
+    sc.update(D_s=fit.D, D_s_err=fit.D_err, D0=diffusion.free_diffusion(v0, Dr),
+              D_eff=D_eff, D_eff_err=D_eff_err, fit_t_min=fit.t_min, fit_t_max=fit.t_max,
+              n_frames=float(frames.size), t_start=float(traj.time[frames[0]]),
+              t_end=float(traj.time[frames[-1]]))
+    lags = log_lag_indices(frames.size, int(settings["msd_lags"]))
+    cv["msd"] = (time[lags], msd[lags])
+    del x
+
+    # --- shape index
+    lo, hi, nb = settings["q_edges"]
+    edges = np.linspace(float(lo), float(hi), int(nb) + 1)
+    centres = 0.5 * (edges[1:] + edges[:-1])
+    sf = _evenly(frames, int(settings["shape_frames"]))
+    if traj.modes_width == 0 and int(p.get("modes", 1) or 0) == 0:
+        q = np.full((1, N), shapes.Q_CIRCLE)  # rigid discs
+    elif "shape_a" in traj.fields and "shape_b" in traj.fields:
+        q = shapes.shape_indices(traj.read("shape_a", sf), traj.read("shape_b", sf), 1.0,
+                                 int(settings["q_points"]))
+    else:
+        q = np.full((1, N), np.nan)  # shapes not stored
+    qs = shapes.q_statistics(q, edges)
+    sc.update(q_mean=qs["q_mean"], q_std=qs["q_std"], q_frac_above=qs["q_frac_above"])
+    cv["q_hist"] = (centres, qs["q_hist"])
+
+    # --- Voronoi defects, clusters, |Psi6| (lengths in units of R0 from here on)
+    vf = _evenly(frames, int(settings["structure_frames"]))
+    pos = traj.read("position", vf) / R0
+    boxr = box / R0
+    ds = voronoi.defect_statistics(pos, boxr)
+    sc.update(rho_d=ds["rho_d"], rho_d_err=ds["rho_d_err"],
+              largest_cluster_fraction=ds["largest_cluster_fraction"],
+              largest_cluster_fraction_err=ds["largest_cluster_fraction_err"])
+    counts = ds["cluster_size_counts"]
+    cv["cluster_size_distribution"] = (np.arange(1, N + 1), counts.astype(float))
+
+    # --- hexatic order and correlations
+    cf = set(_evenly(vf, int(settings["correlation_frames"])).tolist())
+    mods, g6s, grs = [], [], []
+    r = dxs = None
+    for f, P in zip(vf, pos):
+        vn = voronoi.voronoi_neighbors(P, boxr)
+        ps = order.psi6(P, boxr, vn.nlist)
+        mod, ang = order.global_psi6(ps)
+        mods.append(mod)
+        if int(f) in cf:
+            r, g = order.g6(P, boxr, ps, dr=float(settings["g6_dr"]))
+            dxs, gr = order.gr_cut(P, boxr, ang, dx=float(settings["gr_dx"]))
+            g6s.append(g)
+            grs.append(gr)
+    mods = np.asarray(mods)
+    sc["psi6"] = float(mods.mean())
+    sc["psi6_err"] = float(mods.std(ddof=1) / np.sqrt(mods.size)) if mods.size > 1 else float("nan")
+    with np.errstate(invalid="ignore"):
+        cv["G6"] = (r, np.nanmean(np.asarray(g6s), axis=0) if r.size else r.copy())
+        cv["Gr"] = (dxs, np.mean(np.asarray(grs), axis=0))
+
+    # --- labels
+    sc["phase"] = float(phase_code(sc["D_eff"], sc["q_mean"]))
+    sc["percolated"] = float(percolation_code(sc["rho_d"]))
+    extra = {"n_sides_counts": ds["n_sides_counts"], "frames": frames,
+             "structure_frames": vf, "shape_frames": sf}
+    return sc, cv, extra
+
+
+# ------------------------------------------------------------------ one run: files
+
+def read_analysis(path) -> dict:
+    """Read an ``analysis.h5``: ``{"scalars", "curves", "settings", "attrs"}``."""
+    with h5py.File(path, "r", locking=False) as f:
+        attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items()}
+        sc = {k: float(v) for k, v in f["observables"].attrs.items()}
+        cv = {name: (f["curves"][coord][()], f["curves"][name][()])
+              for name, coord in CURVES.items() if name in f["curves"]}
+    return {"scalars": sc, "curves": cv, "settings": json.loads(attrs.get("settings_json", "{}")),
+            "attrs": attrs}
+
+
+def _write_analysis(out_path: Path, traj, settings, sc, cv, extra) -> None:
+    out_path = Path(out_path)
+    tmp = out_path.with_name(f".{out_path.name}.{os.getpid()}.tmp")
+    with h5py.File(tmp, "w", locking=False) as f:
+        f.attrs["fcsweep_version"] = __version__
+        f.attrs["created"] = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+        f.attrs["source"] = str(traj.path)
+        f.attrs["settings_json"] = json.dumps(settings, sort_keys=True)
+        f.attrs["parameters_json"] = json.dumps(traj.params, sort_keys=True, default=str)
+        f.attrs["run_id"] = str(traj.params.get("run_id", ""))
+        g = f.create_group("observables")
+        for k in SCALARS:
+            g.attrs[k] = np.float64(sc[k])
+        c = f.create_group("curves")
+        for name, coord in CURVES.items():
+            x, y = cv[name]
+            if coord not in c:
+                c.create_dataset(coord, data=np.asarray(x))
+            c.create_dataset(name, data=np.asarray(y, dtype=float))
+        f.create_dataset("n_sides_counts", data=extra["n_sides_counts"])
+        f.create_dataset("frames", data=extra["frames"])
+    os.replace(tmp, out_path)
+
+
+def analyze_run(traj_path, out_path=None, *, transient=0.2, force=False, settings=None) -> dict:
+    """Analyse one trajectory and write ``analysis.h5``.
+
+    Parameters
+    ----------
+    traj_path : path-like
+        ``trajectory.h5`` of a finished run.
+    out_path : path-like, optional
+        Output file (default: ``analysis.h5`` beside the trajectory).
+    transient : float
+        Fraction of recorded frames discarded at the start (overrides ``settings``).
+    force : bool
+        Recompute even if an analysis with the same settings exists.
+    settings : dict, optional
+        Overrides of :data:`DEFAULT_SETTINGS`.
+
+    Returns
+    -------
+    dict
+        ``status`` ("done" or "skipped"), ``message``, ``path`` and the scalar observables.
+
+    Raises
+    ------
+    TrajectoryError, AnalysisError
+        With a message naming the file and the problem.
+    """
+    traj_path = Path(traj_path)
+    out_path = Path(out_path) if out_path is not None else traj_path.with_name(ANALYSIS_FILE)
+    s = settings_with(settings, transient=transient)
+    if out_path.exists() and not force:
+        try:
+            old = read_analysis(out_path)
+            if old["settings"] == s:
+                return {"status": "skipped", "message": "up to date", "path": str(out_path),
+                        **old["scalars"]}
+        except (OSError, KeyError, ValueError):
+            pass  # unreadable: recompute
+    traj = open_trajectory(traj_path)
+    sc, cv, extra = compute_observables(traj, s)
+    _write_analysis(out_path, traj, s, sc, cv, extra)
+    return {"status": "done", "message": f"{int(sc['n_frames'])} frames", "path": str(out_path), **sc}
+
+
+def _read_status(run_dir: Path) -> dict | None:
+    try:
+        with open(run_dir / STATUS_FILE) as fh:
+            d = json.load(fh)
+        return d if isinstance(d, dict) else None
+    except (OSError, ValueError):
+        return None
+
+
+def _analyze_task(traj_path, transient, force, settings):
+    try:
+        res = analyze_run(traj_path, transient=transient, force=force, settings=settings)
+        return res["status"], res["message"]
+    except (TrajectoryError, AnalysisError) as exc:
+        return "failed", str(exc)
+    except Exception as exc:  # noqa: BLE001 - report, never crash the sweep
+        return "failed", f"{type(exc).__name__}: {exc}"
+
+
+def analyze_sweep(config, *, workers=1, force=False, settings=None) -> list:
+    """Analyse every finished run of a sweep.
+
+    Runs whose ``status.json`` is not "done" are reported as "skipped" with their status;
+    analysis errors are reported as "failed" (the sweep goes on).
+
+    Returns
+    -------
+    list of (run_id, status, message)
+        status is "done", "skipped" or "failed", in run order.
+    """
+    transient = float(getattr(getattr(config, "run", None), "transient", DEFAULT_SETTINGS["transient"]))
+    out = {}
+    todo = []
+    for spec in config.runs():
+        rd = Path(config.output) / "runs" / spec.run_id
+        st = _read_status(rd)
+        if st is None:
+            out[spec.run_id] = ("skipped", "not run (no status.json)")
+        elif st.get("status") != "done":
+            reason = st.get("reason", "")
+            out[spec.run_id] = ("skipped", f"run {st.get('status', '?')}" + (f": {reason}" if reason else ""))
+        else:
+            todo.append((spec.run_id, rd / TRAJECTORY_FILE))
+    if workers <= 1 or len(todo) <= 1:
+        for rid, tp in todo:
+            out[rid] = _analyze_task(tp, transient, force, settings)
+    else:
+        with ProcessPoolExecutor(max_workers=int(workers)) as pool:
+            futs = {pool.submit(_analyze_task, tp, transient, force, settings): rid for rid, tp in todo}
+            for fut in as_completed(futs):
+                try:
+                    out[futs[fut]] = fut.result()
+                except Exception as exc:  # noqa: BLE001 - e.g. a worker killed for memory
+                    out[futs[fut]] = ("failed", f"{type(exc).__name__}: {exc}")
+    return [(spec.run_id, *out[spec.run_id]) for spec in config.runs()]
+
+
+def build_dataset(config):
+    """The phase-diagram :class:`xarray.Dataset` of a sweep (see :mod:`.aggregate`)."""
+    from fcsweep.analysis.aggregate import build_dataset as _build
+
+    return _build(config)
+
+
+def aggregate_sweep(config) -> Path:
+    """Write ``<output>/phase_diagram.nc`` (NetCDF4, CF-1.8) and return its path."""
+    from fcsweep.analysis.aggregate import aggregate_sweep as _agg
+
+    return _agg(config)
+
+
+def plot_sweep(config, *, run=None, frame=-1, outdir=None) -> list:
+    """Figures of the sweep, or a snapshot of one run; returns the written paths."""
+    from fcsweep.analysis.figures import plot_sweep as _plot
+
+    return _plot(config, run=run, frame=frame, outdir=outdir)
