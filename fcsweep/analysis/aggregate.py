@@ -45,7 +45,7 @@ META = {
     "r": ("pair distance, bin centre (units of R0)", "1"),
     "dx": ("pair separation along the mean hexatic axis, bin centre (units of R0)", "1"),
     "q_bin": ("shape index q, bin centre", "1"),
-    "q_bin_bounds": ("shape index q, bin edges", "1"),
+    "q_bin_bounds": ("shape index q, bin edges (CF bounds: units inherited from q_bin)", ""),
     "cluster_size": ("defect cluster size (cells)", "1"),
     "D_eff": ("effective diffusion D_s / D0, D0 = v0^2 / (2 Dr)", "1"),
     "D_eff_err": ("standard error of D_eff (block estimate over cell subsets)", "1"),

@@ -25,6 +25,7 @@ from __future__ import annotations
 import datetime as _dt
 import json
 import os
+import warnings
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
@@ -185,7 +186,8 @@ def compute_observables(traj, settings: dict) -> tuple[dict, dict, dict]:
     mods = np.asarray(mods)
     sc["psi6"] = float(mods.mean())
     sc["psi6_err"] = float(mods.std(ddof=1) / np.sqrt(mods.size)) if mods.size > 1 else float("nan")
-    with np.errstate(invalid="ignore"):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # bins without pairs in every frame
         cv["G6"] = (r, np.nanmean(np.asarray(g6s), axis=0) if r.size else r.copy())
         cv["Gr"] = (dxs, np.mean(np.asarray(grs), axis=0))
 

@@ -1,0 +1,152 @@
+"""End to end: synthetic H5MD trajectories -> analyze -> aggregate (NetCDF) -> plot.
+
+The trajectories are written directly with h5py in the contract layout (no simulation),
+so the test is fast and independent of the engine: a 2 x 2 grid (eta, v0) of N = 36 runs;
+large eta gives a vibrating lattice (solid), small eta a diffusing, deformed fluid.
+"""
+
+import json
+
+import h5py
+import numpy as np
+import pytest
+import xarray as xr
+
+from fcsweep.analysis.pipeline import (aggregate_sweep, analyze_run, analyze_sweep,
+                                       build_dataset, plot_sweep, read_analysis)
+from fcsweep.analysis.phase import PHASE_SOLID
+from fcsweep.model.lattice import hexagonal_lattice
+
+config_mod = pytest.importorskip("fcsweep.config")
+
+YAML = """
+output: {out}
+seed: 1
+replicates: 1
+grid:
+  eta: [0.01, 0.1]
+  v0: [0.03, 0.06]
+model: {{N: 36, density: 0.95, Dr: 0.01, dt: 0.005, modes: 6}}
+run: {{steps: 2000, sample_every: 50, checkpoint_every: 500, transient: 0.2}}
+"""
+
+
+def write_trajectory(path, params, *, T=41, fluid=False, seed=0):
+    """Synthetic run in the contract's H5MD layout."""
+    rng = np.random.default_rng(seed)
+    N = int(params["N"])
+    pos0, box = hexagonal_lattice(N, params.get("density", 0.95))
+    dtf = params["dt"] * 50
+    if fluid:  # random walk with D = 0.2 D0 plus vibrations
+        D = 0.2 * params["v0"] ** 2 / (2 * params["Dr"])
+        steps = rng.normal(scale=np.sqrt(2 * D * dtf), size=(T, N, 2))
+        steps[0] = 0
+        x = pos0 + np.cumsum(steps, axis=0)
+        amp = 0.25
+    else:
+        x = pos0 + 0.01 * rng.standard_normal((T, N, 2))
+        amp = 0.02
+    image = np.floor_divide(x, box).astype(np.int32)
+    wrapped = x - image * box
+    a = amp * rng.uniform(-1, 1, (T, N, 5)) / np.arange(2, 7)
+    b = amp * rng.uniform(-1, 1, (T, N, 5)) / np.arange(2, 7)
+    steps_i = np.arange(T, dtype=np.int64) * 50
+    with h5py.File(path, "w") as f:
+        f.create_group("h5md").attrs["version"] = [1, 1]
+        f["h5md"].create_group("creator").attrs.update({"name": "fcsweep", "version": "test"})
+        cells = f.create_group("particles/cells")
+        bx = cells.create_group("box")
+        bx.attrs["dimension"] = 2
+        bx.create_dataset("edges", data=box)
+        for name, val in (("position", wrapped), ("image", image),
+                          ("theta", rng.uniform(0, 6.28, (T, N))), ("shape_a", a), ("shape_b", b)):
+            g = cells.create_group(name)
+            g.create_dataset("step", data=steps_i)
+            g.create_dataset("time", data=steps_i * params["dt"])
+            g.create_dataset("value", data=val)
+        par = f.create_group("parameters")
+        for k, v in params.items():
+            par.attrs[k] = v
+        par.attrs["config_json"] = json.dumps({"test": True})
+
+
+@pytest.fixture(scope="module")
+def sweep(tmp_path_factory):
+    out = tmp_path_factory.mktemp("sweep")
+    cfg = config_mod.parse_config(YAML.format(out=out))
+    runs = cfg.runs()
+    assert len(runs) == 4
+    for k, spec in enumerate(runs):
+        rd = out / "runs" / spec.run_id
+        rd.mkdir(parents=True)
+        params = {**dict(spec.params), "run_id": spec.run_id}
+        if k == 3:  # a failed run: reported, NaN in the dataset
+            (rd / "status.json").write_text(json.dumps({"status": "failed", "reason": "unstable"}))
+            continue
+        write_trajectory(rd / "trajectory.h5", params, fluid=spec.params["eta"] < 0.05, seed=k)
+        (rd / "status.json").write_text(json.dumps({"status": "done", "reason": ""}))
+    results = analyze_sweep(cfg, workers=1)
+    return cfg, runs, results
+
+
+def test_analyze_reports_every_run_and_skips_when_up_to_date(sweep):
+    cfg, runs, results = sweep
+    st = {rid: s for rid, s, _ in results}
+    assert [st[r.run_id] for r in runs] == ["done", "done", "done", "skipped"]
+    assert "failed" in dict((rid, m) for rid, _, m in results)[runs[3].run_id]
+    again = analyze_sweep(cfg)
+    assert [s for _, s, _ in again][:3] == ["skipped"] * 3
+    res = read_analysis(cfg.output / "runs" / runs[2].run_id / "analysis.h5")
+    assert res["settings"]["transient"] == 0.2
+    assert res["attrs"]["fcsweep_version"]
+    # solid run (eta = 0.1): D_eff tiny, labelled solid; fluid run clearly diffusive
+    assert res["scalars"]["D_eff"] < 1e-3 and res["scalars"]["phase"] == PHASE_SOLID
+    fl = read_analysis(cfg.output / "runs" / runs[0].run_id / "analysis.h5")["scalars"]
+    assert 0.05 < fl["D_eff"] < 0.6  # input 0.2, 33 frames of 36 cells: noisy
+    assert fl["q_mean"] > res["scalars"]["q_mean"] > 3.5449
+
+
+def test_bad_trajectory_is_reported_not_raised(tmp_path, sweep):
+    cfg, runs, _ = sweep
+    bad = tmp_path / "trajectory.h5"
+    bad.write_bytes(b"not hdf5")
+    from fcsweep.analysis.trajectory import TrajectoryError
+    with pytest.raises(TrajectoryError, match="unreadable"):
+        analyze_run(bad, tmp_path / "analysis.h5")
+
+
+def test_dataset_round_trip_and_contents(sweep, tmp_path):
+    cfg, runs, _ = sweep
+    path = aggregate_sweep(cfg)
+    assert path.name == "phase_diagram.nc"
+    ds = build_dataset(cfg)
+    with xr.open_dataset(path) as back:
+        back = back.load()
+    ds.attrs["history"] = back.attrs["history"]  # timestamps differ between the two builds
+    xr.testing.assert_identical(ds, back)
+    assert ds.attrs["Conventions"] == "CF-1.8"
+    assert list(ds["D_eff"].dims) == ["eta", "v0", "N", "replicate"]
+    for v in ds.variables:
+        if v not in ("nv",):
+            assert "long_name" in ds[v].attrs, v
+    for v in ("D_eff", "q_mean", "q_hist", "rho_d", "largest_cluster_fraction", "psi6", "msd",
+              "G6", "Gr", "phase", "percolated", "status", "D_eff_err"):
+        assert v in ds
+        assert "units" in ds[v].attrs, v
+    assert ds["q_bin"].attrs["bounds"] == "q_bin_bounds"  # CF bounds carry no units
+    failed = dict(eta=runs[3].params["eta"], v0=runs[3].params["v0"])
+    assert np.isnan(ds["D_eff"].sel(failed).item())
+    assert ds["status"].sel(failed).item() == 2
+    assert ds["phase"].sel(failed).item() == -1
+    solid = ds.sel(eta=0.1, v0=0.03).squeeze()
+    assert solid["phase"].item() == PHASE_SOLID and solid["psi6"].item() > 0.9
+    assert "flag_meanings" in ds["phase"].attrs
+
+
+def test_figures_are_written(sweep, tmp_path):
+    cfg, runs, _ = sweep
+    paths = plot_sweep(cfg, outdir=tmp_path / "fig")
+    assert len(paths) == 12
+    paths += plot_sweep(cfg, run=0, frame=-1, outdir=tmp_path / "fig")
+    for p in paths:
+        assert p.exists() and p.stat().st_size > 1000, p
