@@ -58,7 +58,12 @@ def _plane(ds, var, keep, select=None):
 
 def phase_diagram(ds, *, select=None):
     """D_eff on a log colour scale in (eta, v0), with <q> = 3.81 and rho_d = 1/2 contours
-    and the phase of every point marked (solid / fluid / soft-fluid)."""
+    and the phase of every point marked (solid / fluid / soft-fluid).
+
+    Replicates are averaged; other dimensions (N, ...) are taken at ``select`` or their
+    last value.  A 1-D grid or a single point is drawn as coloured markers without
+    contours.  D_eff <= 0 is drawn at the bottom of the colour scale.
+    """
     eta = ds["eta"].values
     v0 = ds["v0"].values
     D = _plane(ds, "D_eff", ("v0", "eta"), select).values
@@ -69,15 +74,15 @@ def phase_diagram(ds, *, select=None):
     pos = D[np.isfinite(D) & (D > 0)]
     norm = LogNorm(vmin=max(min(pos.min(), 1e-3) if pos.size else 1e-4, 1e-6),
                    vmax=max(pos.max(), 1e-2) if pos.size else 1.0)
-    Dp = np.where(np.isfinite(D) & (D > 0), D, np.nan)
+    # D_eff <= 0 (a solid's fit noise) is shown at the bottom of the colour scale
+    Dp = np.where(np.isfinite(D), np.clip(D, norm.vmin, None), np.nan)
     if len(eta) >= 2 and len(v0) >= 2:
         m = ax.pcolormesh(eta, v0, Dp, norm=norm, cmap="viridis", shading="nearest")
         for field, level, style, label in ((q, Q_STAR, "-", r"$\langle q\rangle = 3.81$"),
                                            (rho, 0.5, "--", r"$\rho_d = 1/2$")):
             f = np.ma.masked_invalid(field)
             if f.count() >= 4 and np.nanmin(field) < level < np.nanmax(field):
-                cs = ax.contour(eta, v0, f, levels=[level], colors="k", linestyles=style)
-                cs.set_label(label)
+                ax.contour(eta, v0, f, levels=[level], colors="k", linestyles=style)
                 ax.plot([], [], "k" + style, label=label)
     else:
         E, V = np.meshgrid(eta, v0)
@@ -87,8 +92,8 @@ def phase_diagram(ds, *, select=None):
     for code, (name, marker, color) in PHASE_STYLE.items():
         sel = ph == code
         if np.any(sel):
-            ax.scatter(E[sel], V[sel], marker=marker, facecolors="none", edgecolors="w",
-                       linewidths=1.5, s=60, label=name)
+            ax.scatter(E[sel], V[sel], marker=marker, facecolors="w", edgecolors="k",
+                       linewidths=1.2, s=50, label=name)
     ax.set_xlabel(r"$\eta$")
     ax.set_ylabel(r"$v_0$")
     ax.set_title("phase diagram")
