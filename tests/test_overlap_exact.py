@@ -150,6 +150,17 @@ def test_two_circles_force_is_chord():
     np.testing.assert_allclose(r["dtheta"], 0.0, atol=1e-9)  # circles: no torque
 
 
+def test_shallow_contact_force_uses_small_step():
+    # contact 1e-5 deep: the default step h = 1e-4 would step out of it; the per-pair step
+    # (1e-2 x depth) keeps the stencil inside; round-off ~1e-15 / 1e-7 ~ 1e-8
+    d = 2.0 - 1e-5
+    pos = np.array([[0.0, 0.0], [d, 0.0]])
+    r = reference_rates(pos, np.zeros(2), np.zeros((2, 5)), np.zeros((2, 5)), eta=0.0, v0=0.0)
+    chord = 2 * np.sqrt(1 - d * d / 4)
+    assert r["dpos"][1, 0] == pytest.approx(chord, abs=1e-7)
+    assert r["dpos"][0, 0] == pytest.approx(-chord, abs=1e-7)
+
+
 @pytest.fixture(scope="module")
 def snap16():
     return dense_snapshot(16, density=0.95, seed=3, deform=0.3)

@@ -187,6 +187,10 @@ def _inside_integral(side: _Side, O: np.ndarray, R0: float, K: int, *, return_cr
     Returns I (B,) and, optionally, crossings (pair index, φ, is_entry) sorted per pair.
     """
     B = side.Dc.size
+    if B == 0:
+        empty = (np.zeros(0, np.intp), np.zeros(0), np.zeros(0, bool))
+        return (np.zeros(0), empty) if return_crossings else (
+            (np.zeros(0), np.zeros(0, bool)) if return_coincident else np.zeros(0))
     dphi = 2.0 * np.pi / K
     phi_grid = dphi * np.arange(K)
     u_grid = np.exp(1j * phi_grid)
@@ -369,6 +373,37 @@ def inside_arcs(pos_i, theta_i, a_i, b_i, pos_j, theta_j, a_j, b_j, *, R0=1.0, b
     return [(float(root[k]), float(root[k + 1])) for k in range(0, root.size, 2)]
 
 
+def _contact_depths(D, th_i, a_i, b_i, th_j, a_j, b_j, R0, K, samples=33):
+    """Shallowest contact depth per pair: min over inside arcs of the max radial gap.
+
+    The derivatives of A vary on the scale of this depth (a contact of depth δ has
+    A ~ δ^{3/2}), so it caps the finite-difference step.  inf where there is no arc.
+    """
+    B = D.shape[0]
+    depth = np.full(B, np.inf)
+    for side in (_Side(D, th_i, a_i, b_i, th_j, a_j, b_j), _Side(-D, th_j, a_j, b_j, th_i, a_i, b_i)):
+        _, (p, root, is_entry) = _inside_integral(side, np.zeros_like(D), R0, K,
+                                                  return_crossings=True)
+        if p.size == 0:
+            continue
+        first = np.ones(p.size, dtype=bool)
+        first[1:] = p[1:] != p[:-1]
+        first_idx = np.maximum.accumulate(np.where(first, np.arange(p.size), 0))
+        nxt = np.arange(p.size) + 1
+        last = np.ones(p.size, dtype=bool)
+        last[:-1] = p[1:] != p[:-1]
+        nxt[last] = first_idx[last]
+        start = root[is_entry]
+        end = root[nxt[is_entry]]
+        end = np.where(end <= start, end + 2 * np.pi, end)
+        pp = p[is_entry]
+        t = (np.arange(samples) + 0.5) / samples
+        phi = start[:, None] + (end - start)[:, None] * t[None, :]
+        g = side.gap_at(phi.ravel(), R0, np.repeat(pp, samples)).reshape(-1, samples)
+        np.minimum.at(depth, pp, g.max(axis=1))
+    return depth
+
+
 # ----------------------------------------------------------------------------- energy
 def candidate_pairs(pos, a, b, *, R0=1.0, box=None, margin=0.0):
     """Pairs i < j whose bounding circles overlap (brute force, O(N²)).
@@ -416,14 +451,18 @@ _STENCIL = ((-2.0, 1.0 / 12.0), (-1.0, -8.0 / 12.0), (1.0, 8.0 / 12.0), (2.0, -1
 
 
 def reference_rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, mu_theta=1.0,
-                    mu_shape=1.0, h=1e-4, resolution=1024) -> dict:
+                    mu_shape=1.0, h=1e-4, resolution=1024, shallow_fraction=0.01) -> dict:
     """Deterministic rates of MODEL.md from finite differences of the exact energy.
 
     Every cell variable v (x, y, θ, a_n, b_n) is perturbed with the 4-point central
     stencil ``[f(−2h) − 8f(−h) + 8f(h) − f(2h)] / 12h`` (truncation O(h⁴)); a0 is
     re-derived from the perturbed modes, so the area stays π R0².  Only the pairs that
-    contain the perturbed cell and whose bounding circles (plus 4h) overlap are
-    recomputed; all perturbed pairs are evaluated in one vectorised batch.
+    contain the perturbed cell and overlap now are recomputed (A = 0 means A vanishes
+    in a neighbourhood, so its gradient is exactly 0); all perturbed pairs are evaluated
+    in one vectorised batch.  Shallow contacts: a contact of depth δ (the largest radial
+    gap inside its shallowest arc) has A ~ δ^{3/2} and derivatives that vary on the scale
+    δ, so each pair uses the step ``min(h, shallow_fraction * δ / R0)``; the absolute
+    round-off of such a pair is ~1e-15/step (1e-7 for a contact 1e-6 deep).
 
     Parameters
     ----------
@@ -437,6 +476,8 @@ def reference_rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, mu_theta=1.0
         Finite-difference step (default 1e-4: round-off ~1e-12/h, truncation ~h⁴).
     resolution : int
         Crossing-search samples per contour.
+    shallow_fraction : float
+        Per-pair step cap relative to the contact depth estimate (see above).
 
     Returns
     -------
@@ -450,11 +491,20 @@ def reference_rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, mu_theta=1.0
     b = np.asarray(b, dtype=float)
     N, m = a.shape
     nvar = 3 + 2 * m
-    # ordered neighbour pairs (i perturbed, j fixed)
-    pi, pj, pd = candidate_pairs(pos, a, b, R0=R0, box=box, margin=4 * h * (1 + R0 * m))
+    # pairs in contact now; a pair with A = 0 has zero gradient (A vanishes nearby)
+    pi, pj, pd = candidate_pairs(pos, a, b, R0=R0, box=box)
+    A0 = overlap_areas(pd, theta[pi], a[pi], b[pi], theta[pj], a[pj], b[pj], R0=R0,
+                       resolution=resolution)
+    touch = A0 > 0.0
+    pi, pj, pd, A0 = pi[touch], pj[touch], pd[touch], A0[touch]
+    # ordered pairs (I perturbed, J fixed)
     I = np.concatenate([pi, pj])
     J = np.concatenate([pj, pi])
     Dm = np.concatenate([pd, -pd])  # r_J − r_I
+    # the stencil must stay well inside the shallowest contact of each pair
+    depth = _contact_depths(pd, theta[pi], a[pi], b[pi], theta[pj], a[pj], b[pj], R0, resolution)
+    depth = np.concatenate([depth, depth])
+    hp = np.minimum(h, shallow_fraction * depth / R0)
     P = I.size
     grad = np.zeros((N, nvar))
     ns = len(_STENCIL)
@@ -465,7 +515,7 @@ def reference_rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, mu_theta=1.0
         th_i = np.broadcast_to(theta[I][:, None, None], shape).copy()
         a_i = np.broadcast_to(a[I][:, None, None, :], shape + (m,)).copy()
         b_i = np.broadcast_to(b[I][:, None, None, :], shape + (m,)).copy()
-        off = np.array([s for s, _ in _STENCIL]) * h
+        off = np.array([s for s, _ in _STENCIL])[None, :] * hp[:, None]  # (P, ns)
         D[:, 0, :, 0] -= off  # moving r_i by +δ moves r_j − r_i by −δ
         D[:, 1, :, 1] -= off
         th_i[:, 2, :] += off
@@ -477,7 +527,7 @@ def reference_rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, mu_theta=1.0
                           np.repeat(b[J], nvar * ns, axis=0), R0=R0,
                           resolution=resolution).reshape(shape)
         w = np.array([c for _, c in _STENCIL])
-        dA = (A @ w) / h  # (P, nvar)
+        dA = (A @ w) / hp[:, None]  # (P, nvar)
         np.add.at(grad, I, dA)
     # perimeter part (only modes)
     if eta != 0.0 and m:
@@ -552,7 +602,8 @@ def continuum_rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, mu_theta=1.0
             sin_n = np.sin(np.multiply.outer(phi, n))
             GA[i] += R0 * ((R * w) @ (cos_n - a[i] / (2 * a0[i])))
             GB[i] += R0 * ((R * w) @ (sin_n - b[i] / (2 * a0[i])))
-    dPa, dPb = perimeter_gradient(a, b, R0) if m else (GA * 0, GB * 0)
+    # 4096 points: the default 256 is off by up to ~1e-2 near the admissibility bound
+    dPa, dPb = perimeter_gradient(a, b, R0, points=4096) if m else (GA * 0, GB * 0)
     e = np.stack([np.cos(theta), np.sin(theta)], axis=1)
     return {"dpos": v0 * e + F, "dtheta": mu_theta * T,
             "da": -mu_shape * (GA + eta * dPa), "db": -mu_shape * (GB + eta * dPb)}
