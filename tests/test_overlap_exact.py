@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+import importlib.util
+import pathlib
 import time
 
 import numpy as np
 import pytest
 
-from benchmarks.snapshots import dense_snapshot, snapshot_from_arrays
 from fcsweep.model.overlap_exact import (
     continuum_rates,
     exact_energy,
@@ -16,6 +17,14 @@ from fcsweep.model.overlap_exact import (
     reference_rates,
 )
 from fcsweep.model.shape import ADMISSIBLE_BOUND, amplitude_sum, perimeter_gradient, radius
+
+# benchmarks/ is not a package on the path under plain `pytest`: load it by file
+_spec = importlib.util.spec_from_file_location(
+    "fcsweep_bench_snapshots", pathlib.Path(__file__).resolve().parents[1] / "benchmarks" / "snapshots.py")
+_snapshots = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(_snapshots)
+dense_snapshot = _snapshots.dense_snapshot
+snapshot_from_arrays = _snapshots.snapshot_from_arrays
 
 Z = np.zeros(5)
 
