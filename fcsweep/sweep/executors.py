@@ -67,6 +67,11 @@ def _task(cfg: SweepConfig, spec: RunSpec, force: bool, stale_after: float, skip
     return run_one(cfg, spec, force=force, stale_after=stale_after)
 
 
+def _spec_task(spec: RunSpec, cfg: SweepConfig, force: bool, stale_after: float, skip_failed: bool) -> RunOutcome:
+    """:func:`_task` with the run first, for ``Client.map``."""
+    return _task(cfg, spec, force, stale_after, skip_failed)
+
+
 def _describe(o: RunOutcome, spec: RunSpec) -> str:
     text = {
         "done": "computed",
@@ -132,7 +137,7 @@ def run_sweep(
 
     with Client(scheduler, timeout="30s", set_as_default=False) as client:
         futs = client.map(
-            _task, specs, cfg=cfg, force=force, stale_after=stale_after, skip_failed=skip_failed,
+            _spec_task, specs, cfg=cfg, force=force, stale_after=stale_after, skip_failed=skip_failed,
             pure=False, key=[f"fcsweep-{s.run_id}-{time.time_ns()}" for s in specs],
         )
         try:
