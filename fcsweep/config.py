@@ -22,6 +22,10 @@ sorted.  So ``eta: 1`` and ``eta: 1.0`` give the same run.  The run's seed is
 ``SeedSequence([seed, int(run_id, 16)]).generate_state(1, uint64)[0] >> 1`` (a
 deterministic 63-bit integer), so every run has independent noise and the same run always
 gets the same noise.
+
+Ranges ``{start, stop, num}`` expand with ``numpy.linspace`` (``log: true``:
+``numpy.geomspace``) and each value is rounded to 12 significant digits, so a range and
+the equivalent list give the same runs.
 """
 
 from __future__ import annotations
@@ -383,7 +387,8 @@ def _grid_values(name: str, spec) -> tuple:
             values = np.geomspace(start, stop, num)
         else:
             values = np.linspace(start, stop, num)
-        values = [float(v) for v in values]
+        # 12 significant digits: linspace(0.01, 0.06, 6) gives 0.03, not 0.030000000000000002
+        values = [float(f"{v:.12g}") for v in values]
         if name in INT_PARAMS:
             if any(not float(v).is_integer() for v in values):
                 raise ConfigError(

@@ -1,0 +1,83 @@
+"""The `fcsweep` command line: the built-in demo end to end, list-runs, validate, usage errors."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import h5py
+import pytest
+from click.testing import CliRunner
+
+from fcsweep.cli import cli
+from fcsweep.config import builtin_demo_path, load_config
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def demo_dir(tmp_path_factory):
+    """`fcsweep simulate` with no argument, run in an empty directory."""
+    d = tmp_path_factory.mktemp("demo")
+    cwd = os.getcwd()
+    os.chdir(d)
+    try:
+        r = CliRunner().invoke(cli, ["simulate"])
+    finally:
+        os.chdir(cwd)
+    assert r.exit_code == 0, r.output
+    assert "built-in demo" in r.output and "4 computed" in r.output
+    return d
+
+
+def test_demo_runs_into_fcsweep_demo(demo_dir, monkeypatch):
+    monkeypatch.chdir(demo_dir)
+    cfg = load_config(builtin_demo_path())
+    assert sorted(os.listdir(demo_dir)) == ["fcsweep-demo"]
+    for s in cfg.runs():
+        with h5py.File(demo_dir / "fcsweep-demo" / "runs" / s.run_id / "trajectory.h5", "r") as f:
+            assert f["particles/cells/position/value"].shape == (41, 36, 2)
+    r = CliRunner().invoke(cli, ["status"])
+    assert r.exit_code == 0 and "4 runs: 4 done" in r.output
+
+
+def test_demo_analyze_aggregate_plot(demo_dir, monkeypatch, tmp_path):
+    """The README's chain after the demo: analyze, aggregate, plot take the same default."""
+    pytest.importorskip("fcsweep.analysis.pipeline")
+    monkeypatch.chdir(demo_dir)
+    r = CliRunner().invoke(cli, ["analyze", "--workers", "1"])
+    assert r.exit_code == 0, r.output
+    r = CliRunner().invoke(cli, ["aggregate"])
+    assert r.exit_code == 0, r.output
+    assert Path(r.output.strip().splitlines()[-1]).exists()
+    r = CliRunner().invoke(cli, ["plot", "--outdir", str(tmp_path / "figs")])
+    assert r.exit_code == 0, r.output
+    assert any((tmp_path / "figs").iterdir())
+
+
+def test_list_runs_and_count():
+    path = ROOT / "configs" / "phase.yaml"
+    r = CliRunner().invoke(cli, ["list-runs", str(path), "--count"])
+    assert r.exit_code == 0 and r.output.strip() == "36"
+    r = CliRunner().invoke(cli, ["list-runs", str(path)])
+    lines = r.output.strip().splitlines()
+    assert len(lines) == 36
+    idx, rid, *params = lines[7].split()
+    cfg = load_config(path)
+    assert int(idx) == 7 and rid == cfg.runs()[7].run_id and params == ["eta=0.02", "v0=0.02", "N=1024"]
+    js = json.loads(CliRunner().invoke(cli, ["list-runs", str(path), "--json"]).output)
+    assert js[7]["params"]["seed"] == cfg.runs()[7].seed
+
+
+def test_validate_and_usage_errors(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    r = CliRunner().invoke(cli, ["validate", str(ROOT / "configs" / "phase.yaml")])
+    assert r.exit_code == 0 and "OK, 36 runs" in r.output
+    r = CliRunner().invoke(cli, ["simulate", str(ROOT / "configs" / "smoke.yaml"), "--task-index", "4"])
+    assert r.exit_code == 2 and "runs 0..3" in r.output
+    r = CliRunner().invoke(cli, ["simulate", "missing.yaml"])
+    assert r.exit_code == 2 and "cannot read config file" in r.output
+    assert os.listdir(tmp_path) == []
+    r = CliRunner().invoke(cli, ["--version"])
+    assert r.exit_code == 0 and "version" in r.output
