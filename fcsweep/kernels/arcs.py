@@ -15,38 +15,9 @@ import math
 
 from numba import njit
 
-NJIT = dict(cache=True, error_model="numpy")
+from .options import NJIT
 
 _G = 0.5 / math.sqrt(3.0)  # Gauss-Legendre nodes at 1/2 -+ _G on [0, 1]
-
-
-@njit(**NJIT)
-def gap_and_slope(ox, oy, tx, ty, j, a, b, geo, R0):
-    """Gap g = R_j(psi) - |d| and dg/dphi for the offset d from r_j and tangent t = dx/dphi."""
-    M1 = a.shape[1]
-    d2 = ox * ox + oy * oy
-    r = math.sqrt(d2)
-    if r < 1e-300:
-        return R0 * geo[j, 0], 0.0
-    inv = 1.0 / r
-    ct = geo[j, 2]
-    st = geo[j, 3]
-    c = (ox * ct + oy * st) * inv
-    s = (oy * ct - ox * st) * inv
-    cn = c
-    sn = s
-    Rj = geo[j, 0]
-    dRj = 0.0
-    for m in range(M1):
-        t = cn * c - sn * s
-        sn = sn * c + cn * s
-        cn = t
-        am = a[j, m]
-        bm = b[j, m]
-        Rj += am * cn + bm * sn
-        dRj += (m + 2.0) * (bm * cn - am * sn)
-    dpsi = (ox * ty - oy * tx) * inv * inv
-    return R0 * Rj - r, R0 * dRj * dpsi - (ox * tx + oy * ty) * inv
 
 
 @njit(**NJIT)
@@ -164,33 +135,21 @@ def _integrate(i, k, t1, t2, h, a, b, geo, R0, cphi, sphi, acc):
 
 
 @njit(**NJIT)
-def arc_pair(i, j, dx, dy, k0, nseg, theta, a, b, geo, R, dR, px, py, cphi, sphi, R0, gbuf, acc):
-    """Integrate the overlap of cell j over the contour segments of cell i.
+def arc_pair(i, k0, nseg, a, b, geo, R0, cphi, sphi, tb, tid, acc):
+    """Integrate the overlap of one neighbour over the contour segments of cell i.
 
-    ``gbuf[i, 0, m]`` holds the gap at window point m (contour index k0 + m, modulo K);
-    this function adds the slopes to ``gbuf[i, 1, :]`` and the arc integrals to ``acc[i]``.
-    Segments m = 0 .. nseg - 1 join window points m and m + 1.
+    ``tb[tid, 6, m]`` and ``tb[tid, 7, m]`` hold the gap and h * dg/dphi at window point m
+    (contour index k0 + m, modulo K); segments m = 0 .. nseg - 1 join points m, m + 1.
+    Adds the arc integrals to ``acc[i]``.
     """
     K = cphi.shape[0]
     h = 2.0 * math.pi / K
-    c = geo[i, 2]
-    s = geo[i, 3]
-    for m in range(nseg + 1):
-        kk = k0 + m
-        k = kk % K
-        ex = c * cphi[k] - s * sphi[k]
-        ey = s * cphi[k] + c * sphi[k]
-        tx = dR[i, k] * ex - R[i, k] * ey
-        ty = dR[i, k] * ey + R[i, k] * ex
-        g, dg = gap_and_slope(px[i, k] - dx, py[i, k] - dy, tx, ty, j, a, b, geo, R0)
-        gbuf[i, 0, m] = g
-        gbuf[i, 1, m] = dg * h
     for m in range(nseg):
         k = (k0 + m) % K
-        g0 = gbuf[i, 0, m]
-        g1 = gbuf[i, 0, m + 1]
-        m0 = gbuf[i, 1, m]
-        m1 = gbuf[i, 1, m + 1]
+        g0 = tb[tid, 6, m]
+        g1 = tb[tid, 6, m + 1]
+        m0 = tb[tid, 7, m]
+        m1 = tb[tid, 7, m + 1]
         in0 = g0 > 0.0
         in1 = g1 > 0.0
         if in0 != in1:
@@ -214,9 +173,9 @@ def arc_pair(i, j, dx, dy, k0, nseg, theta, a, b, geo, R, dR, px, py, cphi, sphi
                 _integrate(i, k, 0.0, 1.0, h, a, b, geo, R0, cphi, sphi, acc)
             continue
         ta = _root(0.0, tc, g0, g0, g1, m0, m1)
-        tb = _root(tc, 1.0, -g0 if g0 != 0.0 else 1.0, g0, g1, m0, m1)
+        tb_ = _root(tc, 1.0, -g0 if g0 != 0.0 else 1.0, g0, g1, m0, m1)
         if in0:
             _integrate(i, k, 0.0, ta, h, a, b, geo, R0, cphi, sphi, acc)
-            _integrate(i, k, tb, 1.0, h, a, b, geo, R0, cphi, sphi, acc)
+            _integrate(i, k, tb_, 1.0, h, a, b, geo, R0, cphi, sphi, acc)
         else:
-            _integrate(i, k, ta, tb, h, a, b, geo, R0, cphi, sphi, acc)
+            _integrate(i, k, ta, tb_, h, a, b, geo, R0, cphi, sphi, acc)

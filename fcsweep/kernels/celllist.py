@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-NJIT = dict(cache=True, error_model="numpy", fastmath=False)
+from .options import NJIT
 
 
 @njit(**NJIT)

@@ -8,9 +8,12 @@ Array conventions (N cells, K contour points, M1 = M - 1 shape modes):
 - ``cosn, sinn``  float64[M1, K]  cos(n phi_k), sin(n phi_k), n = 2..M
 - ``cphi, sphi``  float64[K]      cos(phi_k), sin(phi_k)
 - ``R, dR``       float64[N, K]   R_i(phi_k), R'_i(phi_k)
-- ``px, py``      float64[N, 2K]  contour point offsets x_ik - r_i in the lab frame,
-  stored twice in a row so that an angular window never wraps
-- ``geo``         float64[N, 4]   a0, bounding radius, cos(theta), sin(theta)
+- ``px, py``      float64[N, 2K+LANES]  contour point offsets x_ik - r_i in the lab
+  frame, repeated periodically along the row so that an angular window never wraps
+- ``tx, ty``      like px, py: contour tangents dx/dphi (arc rule only)
+- ``geo``         float64[N, 5]   a0, bounding radius, cos(theta), sin(theta), largest
+  sampled radius
+- ``tbuf``        float64[threads, 9, K + 8]  per-thread window scratch
 """
 
 from __future__ import annotations
@@ -18,11 +21,14 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import get_thread_id, njit, prange
 
 from .arcs import arc_pair
+from .options import NJIT
 
-NJIT = dict(cache=True, error_model="numpy")
+
+#: Points per vector block of the binary rule (a multiple of the SIMD width).
+LANES = 8
 
 QUAD_BINARY = 0
 QUAD_LINEAR = 1
@@ -39,9 +45,48 @@ def mode_tables(K, M1):
     return cosn.reshape(M1, K), sinn.reshape(M1, K), np.cos(phi), np.sin(phi)
 
 
+@njit(inline="always", **NJIT)
+def modes6(a, b, j):
+    """The modes n = 2..6 of cell j as ten scalars, zero beyond the array width."""
+    M1 = a.shape[1]
+    a2 = a[j, 0] if M1 > 0 else 0.0
+    a3 = a[j, 1] if M1 > 1 else 0.0
+    a4 = a[j, 2] if M1 > 2 else 0.0
+    a5 = a[j, 3] if M1 > 3 else 0.0
+    a6 = a[j, 4] if M1 > 4 else 0.0
+    b2 = b[j, 0] if M1 > 0 else 0.0
+    b3 = b[j, 1] if M1 > 1 else 0.0
+    b4 = b[j, 2] if M1 > 2 else 0.0
+    b5 = b[j, 3] if M1 > 3 else 0.0
+    b6 = b[j, 4] if M1 > 4 else 0.0
+    return a2, a3, a4, a5, a6, b2, b3, b4, b5, b6
+
+
+@njit(inline="always", **NJIT)
+def fourier6(c, s, a2, a3, a4, a5, a6, b2, b3, b4, b5, b6):
+    """sum_n (a_n cos n psi + b_n sin n psi) and its psi-derivative for n = 2..6,
+    from c = cos psi and s = sin psi by exact multiple-angle products (no trig calls).
+    Straight-line code, so that loops calling it vectorise across points."""
+    c2 = c * c - s * s
+    s2 = 2.0 * c * s
+    c3 = c2 * c - s2 * s
+    s3 = s2 * c + c2 * s
+    c4 = c2 * c2 - s2 * s2
+    s4 = 2.0 * c2 * s2
+    c5 = c4 * c - s4 * s
+    s5 = s4 * c + c4 * s
+    c6 = c3 * c3 - s3 * s3
+    s6 = 2.0 * c3 * s3
+    r = a2 * c2 + b2 * s2 + a3 * c3 + b3 * s3 + a4 * c4 + b4 * s4 + a5 * c5 + b5 * s5 + a6 * c6 + b6 * s6
+    dr = (2.0 * (b2 * c2 - a2 * s2) + 3.0 * (b3 * c3 - a3 * s3) + 4.0 * (b4 * c4 - a4 * s4)
+          + 5.0 * (b5 * c5 - a5 * s5) + 6.0 * (b6 * c6 - a6 * s6))
+    return r, dr
+
+
 @njit(parallel=True, **NJIT)
-def geometry(theta, a, b, R0, cosn, sinn, cphi, sphi, R, dR, px, py, geo):
-    """Contour radius, its derivative and lab-frame contour points of every cell."""
+def geometry(theta, a, b, R0, cosn, sinn, cphi, sphi, R, dR, px, py, tx, ty, tangents, geo):
+    """Contour radius, its derivative and lab-frame contour points of every cell
+    (and, if ``tangents``, the contour tangents dx/dphi = R' e + R e_perp)."""
     N, M1 = a.shape
     K = cphi.shape[0]
     for i in prange(N):
@@ -58,26 +103,45 @@ def geometry(theta, a, b, R0, cosn, sinn, cphi, sphi, R, dR, px, py, geo):
         geo[i, 1] = R0 * (a0 + s1)
         geo[i, 2] = c
         geo[i, 3] = s
-        for k in range(K):
-            R[i, k] = a0
-            dR[i, k] = 0.0
-        for m in range(M1):
-            am = a[i, m]
-            bm = b[i, m]
-            n = m + 2.0
+        if M1 <= 5:
+            a2, a3, a4, a5, a6, b2, b3, b4, b5, b6 = modes6(a, b, i)
             for k in range(K):
-                R[i, k] += am * cosn[m, k] + bm * sinn[m, k]
-                dR[i, k] += n * (bm * cosn[m, k] - am * sinn[m, k])
+                r, d = fourier6(cphi[k], sphi[k], a2, a3, a4, a5, a6, b2, b3, b4, b5, b6)
+                R[i, k] = a0 + r
+                dR[i, k] = d
+        else:
+            for k in range(K):
+                R[i, k] = a0
+                dR[i, k] = 0.0
+            for m in range(M1):
+                am = a[i, m]
+                bm = b[i, m]
+                n = m + 2.0
+                for k in range(K):
+                    R[i, k] += am * cosn[m, k] + bm * sinn[m, k]
+                    dR[i, k] += n * (bm * cosn[m, k] - am * sinn[m, k])
+        rho = 0.0
         for k in range(K):
             r = R0 * R[i, k]
+            rho = max(rho, r)
             R[i, k] = r
             dR[i, k] *= R0
             x = r * (c * cphi[k] - s * sphi[k])
             y = r * (s * cphi[k] + c * sphi[k])
             px[i, k] = x
             py[i, k] = y
-            px[i, k + K] = x
-            py[i, k + K] = y
+        for k in range(K, px.shape[1]):
+            px[i, k] = px[i, k - K]
+            py[i, k] = py[i, k - K]
+        if tangents:
+            for k in range(K):
+                q = dR[i, k] / R[i, k]
+                tx[i, k] = q * px[i, k] - py[i, k]
+                ty[i, k] = q * py[i, k] + px[i, k]
+            for k in range(K, tx.shape[1]):
+                tx[i, k] = tx[i, k - K]
+                ty[i, k] = ty[i, k - K]
+        geo[i, 4] = rho
 
 
 @njit(**NJIT)
@@ -104,19 +168,59 @@ def gap_at(ox, oy, j, a, b, geo, R0):
     return R0 * Rj - r
 
 
-@njit(**NJIT)
-def angular_window(dx, dy, D, theta_i, rbj, K):
+@njit(inline="always", **NJIT)
+def atan2_fast(y, x):
+    """atan2 by octant reduction and an odd minimax polynomial; |error| < 1e-5 rad.
+
+    Used only to place angular windows, which carry a larger safety margin.
+    """
+    ax = abs(x)
+    ay = abs(y)
+    mx = max(ax, ay)
+    if mx == 0.0:
+        return 0.0
+    z = min(ax, ay) / mx
+    z2 = z * z
+    r = z * (0.9998660 + z2 * (-0.3302995 + z2 * (0.1801410 + z2 * (-0.0851330 + z2 * 0.0208351))))
+    if ay > ax:
+        r = 0.5 * math.pi - r
+    if x < 0.0:
+        r = math.pi - r
+    if y < 0.0:
+        r = -r
+    return r
+
+
+#: Safety margin of the angular windows, in radians (>> the atan2_fast error).
+WINDOW_MARGIN = 1e-3
+
+
+@njit(inline="always", **NJIT)
+def angular_window(dx, dy, D, c_i, s_i, rho_max, rbj, K):
     """Contour points of cell i that can lie in the bounding circle of j.
 
-    A point at any radius in direction beta from r_i is within ``rbj`` of r_j (at
-    distance D in direction alpha) only if |beta - alpha| <= asin(rbj / D).  Returns
-    the first index (0 <= k0 < K) and the count (K for the whole contour).
+    A point at distance rho <= rho_max from r_i in direction beta is within ``rbj`` of
+    r_j (distance D, direction alpha) only if cos(beta - alpha) > (rho^2 + D^2 - rbj^2)
+    / (2 rho D); the loosest such bound over rho gives the half-width of the window.
+    Returns the first index (0 <= k0 < K) and the count (K for the whole contour).
     """
     if D <= rbj * (1.0 + 1e-12):
         return 0, K
+    tangent2 = D * D - rbj * rbj
+    if rho_max * rho_max >= tangent2:
+        sin_half = rbj / D  # the window reaches the tangent lines of j's circle
+        half = atan2_fast(sin_half, math.sqrt(tangent2) / D)
+    else:
+        cos_half = (rho_max * rho_max + tangent2) / (2.0 * rho_max * D)
+        if cos_half >= 1.0:
+            return 0, 0
+        half = atan2_fast(math.sqrt(1.0 - cos_half * cos_half), cos_half)
+    # direction of r_j - r_i in the body frame of i
+    bx = dx * c_i + dy * s_i
+    by = dy * c_i - dx * s_i
     dphi = 2.0 * math.pi / K
-    half = math.asin(rbj / D) / dphi
-    centre = (math.atan2(dy, dx) - theta_i) / dphi
+    centre = atan2_fast(by, bx) / dphi
+    half = (half + WINDOW_MARGIN) / dphi
     lo = int(math.floor(centre - half))
     hi = int(math.ceil(centre + half))
     cnt = hi - lo + 1
@@ -128,29 +232,158 @@ def angular_window(dx, dy, D, theta_i, rbj, K):
     return k0, cnt
 
 
-@njit(**NJIT)
-def pair_weights(i, j, dx, dy, theta, a, b, geo, R, dR, px, py, cphi, sphi, R0, quad, W, gbuf, acc):
+@njit(inline="always", **NJIT)
+def binary_window(i, j, dx, dy, k0, cnt, a, b, geo, px, py, R0, W):
+    """Binary rule: add 1 to ``W[i, kk]`` for each window point kk inside cell j.
+
+    One branch-free loop that the compiler vectorises; the window is padded up to a
+    multiple of LANES points (the extra points lie outside the window's cone, so they
+    test outside).  ``px``, ``py`` and ``W`` have 2K + LANES periodic columns so that a
+    window never wraps.  Points beyond j's bounding circle are masked out.
+    """
+    a2, a3, a4, a5, a6, b2, b3, b4, b5, b6 = modes6(a, b, j)
+    a0 = geo[j, 0]
+    ct = geo[j, 2]
+    st = geo[j, 3]
+    rb2 = geo[j, 1] * geo[j, 1]
+    # unsigned indices: numba then emits no negative-index wraparound, and LLVM
+    # vectorises the loop across points
+    ui = np.uint64(i)
+    start = np.uint64(k0)
+    stop = start + np.uint64((cnt + LANES - 1) // LANES * LANES)
+    for kk in range(start, stop):
+        ox = px[ui, kk] - dx
+        oy = py[ui, kk] - dy
+        d2 = ox * ox + oy * oy
+        r = math.sqrt(d2)
+        inv = 1.0 / max(r, 1e-300)
+        c = (ox * ct + oy * st) * inv
+        s = (oy * ct - ox * st) * inv
+        rr, _ = fourier6(c, s, a2, a3, a4, a5, a6, b2, b3, b4, b5, b6)
+        inside = (R0 * (a0 + rr) > r) & (d2 < rb2)
+        W[ui, kk] += 1.0 if inside else 0.0
+
+
+@njit(inline="always", **NJIT)
+def window_gaps6(i, j, dx, dy, k0, n, slopes, a, b, geo, px, py, tx, ty, R0, h, tb, tid):
+    """Gap g (row 6 of ``tb``) and, if ``slopes``, h dg/dphi (row 7) at the window
+    points k0 .. k0+n-1 of cell i relative to cell j, for M <= 6 (vectorised loop).
+
+    dg/dphi = R_j'(psi) dpsi/dphi - d.t/|d| with t = dx_i/dphi the contour tangent and
+    dpsi/dphi = (d x t)/|d|^2.
+    """
+    a2, a3, a4, a5, a6, b2, b3, b4, b5, b6 = modes6(a, b, j)
+    a0 = geo[j, 0]
+    ct = geo[j, 2]
+    st = geo[j, 3]
+    ui = np.uint64(i)
+    ut = np.uint64(tid)
+    start = np.uint64(k0)
+    for m in range(np.uint64(0), np.uint64(n)):
+        kk = start + m
+        ox = px[ui, kk] - dx
+        oy = py[ui, kk] - dy
+        r = math.sqrt(ox * ox + oy * oy)
+        inv = 1.0 / max(r, 1e-300)
+        c = (ox * ct + oy * st) * inv
+        s = (oy * ct - ox * st) * inv
+        rr, drr = fourier6(c, s, a2, a3, a4, a5, a6, b2, b3, b4, b5, b6)
+        tb[ut, 6, m] = R0 * (a0 + rr) - r
+        if slopes:
+            txk = tx[ui, kk]
+            tyk = ty[ui, kk]
+            dpsi = (ox * tyk - oy * txk) * inv * inv
+            tb[ut, 7, m] = (R0 * drr * dpsi - (ox * txk + oy * tyk) * inv) * h
+
+
+@njit(inline="always", **NJIT)
+def window_gaps_generic(i, j, dx, dy, k0, cnt, slopes, a, b, geo, R, dR, px, py, cphi, sphi, R0, tb, tid, n):
+    """Radial gaps of the contour points k0 .. k0+cnt-1 of cell i relative to cell j.
+
+    Written as three short loops over the window (direction cosines; the mode
+    recurrence; the gap) so that the compiler vectorises them across points.  Row 6 of
+    ``tb`` receives g, row 7 dg/dphi when ``slopes`` is set (arc rule).  ``n`` points
+    are used; ``tb[8]`` may list contour indices (binary rule) else k0 + m.
+    """
+    K = cphi.shape[0]
+    M1 = a.shape[1]
+    ct = geo[j, 2]
+    st = geo[j, 3]
+    for m in range(n):
+        kk = k0 + m if k0 >= 0 else int(tb[tid, 8, m])
+        ox = px[i, kk] - dx
+        oy = py[i, kk] - dy
+        r = math.sqrt(ox * ox + oy * oy)
+        inv = 1.0 / max(r, 1e-300)
+        c = (ox * ct + oy * st) * inv
+        s = (oy * ct - ox * st) * inv
+        tb[tid, 0, m] = c
+        tb[tid, 1, m] = s
+        tb[tid, 2, m] = c
+        tb[tid, 3, m] = s
+        tb[tid, 4, m] = geo[j, 0]
+        tb[tid, 5, m] = r
+        tb[tid, 7, m] = 0.0
+    for mm in range(M1):
+        am = a[j, mm]
+        bm = b[j, mm]
+        nn = mm + 2.0
+        for m in range(n):
+            c = tb[tid, 0, m]
+            s = tb[tid, 1, m]
+            cn = tb[tid, 2, m] * c - tb[tid, 3, m] * s
+            sn = tb[tid, 3, m] * c + tb[tid, 2, m] * s
+            tb[tid, 2, m] = cn
+            tb[tid, 3, m] = sn
+            tb[tid, 4, m] += am * cn + bm * sn
+            tb[tid, 7, m] += nn * (bm * cn - am * sn)
+    for m in range(n):
+        tb[tid, 6, m] = R0 * tb[tid, 4, m] - tb[tid, 5, m]
+    if slopes:
+        h = 2.0 * math.pi / K
+        ci = geo[i, 2]
+        si = geo[i, 3]
+        for m in range(n):
+            k = (k0 + m) % K
+            ox = px[i, k] - dx
+            oy = py[i, k] - dy
+            ex = ci * cphi[k] - si * sphi[k]
+            ey = si * cphi[k] + ci * sphi[k]
+            tx = dR[i, k] * ex - R[i, k] * ey
+            ty = dR[i, k] * ey + R[i, k] * ex
+            inv = 1.0 / max(tb[tid, 5, m], 1e-300)
+            dpsi = (ox * ty - oy * tx) * inv * inv
+            tb[tid, 7, m] = (R0 * tb[tid, 7, m] * dpsi - (ox * tx + oy * ty) * inv) * h
+
+
+@njit(inline="always", **NJIT)
+def pair_weights(i, j, dx, dy, theta, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad, W, tb, tid, acc):
     """Add the overlap weights of cell j onto the contour points of cell i.
 
     ``(dx, dy)`` is r_j - r_i for the image of j being considered.  Binary and linear
     rules add per-point weights to ``W[i]``; the arc rule adds exact arc integrals to
-    ``acc[i]`` directly.
+    ``acc[i]`` directly.  ``tb`` is this thread's scratch, shape (9, >= K + 3).
     """
     K = cphi.shape[0]
     rbj = geo[j, 1]
     D = math.sqrt(dx * dx + dy * dy)
     if quad == QUAD_BINARY:
-        k0, cnt = angular_window(dx, dy, D, theta[i], rbj, K)
+        k0, cnt = angular_window(dx, dy, D, geo[i, 2], geo[i, 3], geo[i, 4], rbj, K)
+        if a.shape[1] <= 5:
+            binary_window(i, j, dx, dy, k0, cnt, a, b, geo, px, py, R0, W)
+            return
+        # generic M: per-point bounding-circle rejection, then the Fourier test
         rb2 = rbj * rbj
         for kk in range(k0, k0 + cnt):
             ox = px[i, kk] - dx
             oy = py[i, kk] - dy
             if ox * ox + oy * oy < rb2:
                 if gap_at(ox, oy, j, a, b, geo, R0) > 0.0:
-                    W[i, kk if kk < K else kk - K] += 1.0
+                    W[i, kk] += 1.0
         return
-    # linear and arc rules need the gap one point beyond each end of the window
-    k0, cnt = angular_window(dx, dy, D, theta[i], rbj, K)
+    # linear and arc rules: rigorous window (the contour between samples may bulge
+    # beyond the sampled radii), extended by one point on either side
+    k0, cnt = angular_window(dx, dy, D, geo[i, 2], geo[i, 3], geo[i, 1], rbj, K)
     full = cnt + 2 >= K
     if full:
         k0 = 0
@@ -161,15 +394,18 @@ def pair_weights(i, j, dx, dy, theta, a, b, geo, R, dR, px, py, cphi, sphi, R0, 
             k0 += K
         cnt += 2
     nseg = K if full else cnt - 1
+    if a.shape[1] <= 5:
+        window_gaps6(i, j, dx, dy, k0, nseg + 1, quad == QUAD_ARC, a, b, geo, px, py, tx, ty, R0,
+                     2.0 * math.pi / K, tb, tid)
+    else:
+        window_gaps_generic(i, j, dx, dy, k0, nseg + 1, quad == QUAD_ARC, a, b, geo, R, dR, px, py, cphi, sphi,
+                            R0, tb, tid, nseg + 1)
     if quad == QUAD_ARC:
-        arc_pair(i, j, dx, dy, k0, nseg, theta, a, b, geo, R, dR, px, py, cphi, sphi, R0, gbuf, acc)
+        arc_pair(i, k0, nseg, a, b, geo, R0, cphi, sphi, tb, tid, acc)
         return
-    for m in range(nseg + 1):
-        kk = (k0 + m) % K
-        gbuf[i, 0, m] = gap_at(px[i, kk] - dx, py[i, kk] - dy, j, a, b, geo, R0)
     for m in range(nseg):
-        g0 = gbuf[i, 0, m]
-        g1 = gbuf[i, 0, m + 1]
+        g0 = tb[tid, 6, m]
+        g1 = tb[tid, 6, m + 1]
         in0 = g0 > 0.0
         in1 = g1 > 0.0
         if not in0 and not in1:
@@ -190,7 +426,7 @@ def pair_weights(i, j, dx, dy, theta, a, b, geo, R, dR, px, py, cphi, sphi, R0, 
         W[i, kk1] += second
 
 
-@njit(**NJIT)
+@njit(inline="always", **NJIT)
 def cell_rates(i, theta, a, b, geo, R, dR, cosn, sinn, cphi, sphi, W, acc, R0, eta, v0, mu_theta, mu_shape,
                dpos, dth, da, db):
     """Rates of cell i from its point weights ``W[i]`` and arc integrals ``acc[i]``.
@@ -210,6 +446,9 @@ def cell_rates(i, theta, a, b, geo, R, dR, cosn, sinn, cphi, sphi, W, acc, R0, e
     usum = 0.0
     for k in range(K):
         w = W[i, k]
+        for kk in range(k + K, W.shape[1], K):
+            w += W[i, kk]
+        W[i, k] = w
         r = R[i, k]
         d = dR[i, k]
         ex = c * cphi[k] - s * sphi[k]
@@ -254,7 +493,7 @@ def cell_rates(i, theta, a, b, geo, R, dR, cosn, sinn, cphi, sphi, W, acc, R0, e
 
 @njit(parallel=True, **NJIT)
 def all_rates(pos, theta, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shape, quad,
-              cosn, sinn, cphi, sphi, R, dR, px, py, geo, W, gbuf, acc,
+              cosn, sinn, cphi, sphi, R, dR, px, py, tx, ty, geo, W, tbuf, acc,
               nx, ny, cell_of, cell_start, cell_members, dpos, dth, da, db):
     """Deterministic rates of every cell (geometry must be current).
 
@@ -265,6 +504,7 @@ def all_rates(pos, theta, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shap
     """
     N = pos.shape[0]
     for i in prange(N):
+        tid = get_thread_id()
         for k in range(W.shape[1]):
             W[i, k] = 0.0
         for k in range(acc.shape[1]):
@@ -300,7 +540,7 @@ def all_rates(pos, theta, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shap
                         cut = rbi + geo[j, 1]
                         if dx * dx + dy * dy >= cut * cut:
                             continue
-                        pair_weights(i, j, dx, dy, theta, a, b, geo, R, dR, px, py, cphi, sphi, R0, quad, W, gbuf, acc)
+                        pair_weights(i, j, dx, dy, theta, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad, W, tbuf, tid, acc)
         else:
             nimg = 1 if periodic else 0
             for j in range(N):
@@ -313,6 +553,6 @@ def all_rates(pos, theta, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shap
                         cut = rbi + geo[j, 1]
                         if dx * dx + dy * dy >= cut * cut:
                             continue
-                        pair_weights(i, j, dx, dy, theta, a, b, geo, R, dR, px, py, cphi, sphi, R0, quad, W, gbuf, acc)
+                        pair_weights(i, j, dx, dy, theta, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad, W, tbuf, tid, acc)
         cell_rates(i, theta, a, b, geo, R, dR, cosn, sinn, cphi, sphi, W, acc, R0, eta, v0, mu_theta, mu_shape,
                    dpos, dth, da, db)

@@ -13,7 +13,8 @@ import numpy as np
 from numba import njit, prange
 
 from .celllist import build_cell_list, grid_shape
-from .contour import NJIT, all_rates, geometry
+from .contour import QUAD_ARC, all_rates, geometry
+from .options import NJIT
 
 #: Status codes returned by :func:`run_chunk`.
 OK = 0
@@ -81,11 +82,11 @@ def euler_update(pos, image, theta, a, b, dpos, dth, da, db, noise, Lx, Ly, peri
 def compute_rates(pos, theta, a, b, prm, periodic, quad, tables, scratch, cl, out):
     """Geometry, cell list and rates for the current state (helper of run_chunk)."""
     cosn, sinn, cphi, sphi = tables
-    R, dR, px, py, geo, W, gbuf, acc = scratch
+    R, dR, px, py, tx, ty, geo, W, tbuf, acc = scratch
     cell_of, cell_start, cell_members = cl
     dpos, dth, da, db = out
     R0 = prm[P_R0]
-    geometry(theta, a, b, R0, cosn, sinn, cphi, sphi, R, dR, px, py, geo)
+    geometry(theta, a, b, R0, cosn, sinn, cphi, sphi, R, dR, px, py, tx, ty, quad == QUAD_ARC, geo)
     Lx = prm[P_LX]
     Ly = prm[P_LY]
     nx = 0
@@ -101,7 +102,7 @@ def compute_rates(pos, theta, a, b, prm, periodic, quad, tables, scratch, cl, ou
             nx = 0
             ny = 0
     all_rates(pos, theta, a, b, Lx, Ly, periodic, R0, prm[P_ETA], prm[P_V0], prm[P_MUT], prm[P_MUS], quad,
-              cosn, sinn, cphi, sphi, R, dR, px, py, geo, W, gbuf, acc,
+              cosn, sinn, cphi, sphi, R, dR, px, py, tx, ty, geo, W, tbuf, acc,
               nx, ny, cell_of, cell_start, cell_members, dpos, dth, da, db)
 
 

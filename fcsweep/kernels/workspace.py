@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 
-from .contour import QUADRATURE_CODES, mode_tables
+from .contour import LANES, QUADRATURE_CODES, mode_tables
 
 
 class Workspace:
@@ -26,11 +27,13 @@ class Workspace:
         self.scratch = (
             np.zeros((N, K)),  # R
             np.zeros((N, K)),  # dR
-            np.zeros((N, 2 * K)),  # px
-            np.zeros((N, 2 * K)),  # py
-            np.zeros((N, 4)),  # geo: a0, bounding radius, cos theta, sin theta
-            np.zeros((N, K)),  # W: point weights
-            np.zeros((N, 2, K + 3)),  # gbuf: gap and slope on a window
+            np.zeros((N, 2 * K + LANES)),  # px
+            np.zeros((N, 2 * K + LANES)),  # py
+            np.zeros((N, 2 * K + LANES)),  # tx
+            np.zeros((N, 2 * K + LANES)),  # ty
+            np.zeros((N, 5)),  # geo: a0, bounding radius, cos, sin theta, largest sampled radius
+            np.zeros((N, 2 * K + LANES)),  # W: point weights, periodic like px
+            np.zeros((numba.config.NUMBA_NUM_THREADS, 9, K + 8)),  # tbuf: per-thread window scratch
             np.zeros((N, 4 + 2 * self.M1)),  # acc: arc integrals
         )
         # cells of side >= 2 R0 (a0 + s) >= 2 R0 a0 >= 2 R0 / sqrt(3) ... bounded count
