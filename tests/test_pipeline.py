@@ -259,3 +259,35 @@ def test_progress_plain_lines_and_bars():
     p.run_finished("abc", "done")
     p.close()
     assert "runs" in buf.getvalue() and "1/2" in buf.getvalue()
+
+
+def test_heartbeat_thread_refreshes_lock(tmp_path):
+    lock = RunLock(tmp_path / "run.lock")
+    assert lock.acquire()
+    old = time.time() - 1000
+    os.utime(lock.path, (old, old))
+    lock.start_heartbeat(interval=0.05)
+    time.sleep(0.3)
+    assert lock_info(lock.path)["age"] < 5
+    lock.release()
+    assert not lock.path.exists()
+
+
+def test_run_stops_without_writing_when_lock_is_taken_over(done_sweep, tmp_path):
+    """If another process took our lock over (our heartbeat stalled), we stop writing."""
+    from fcsweep.sweep.runner import run_one
+
+    path, _ = done_sweep
+    cfg = load_config(path).with_output(tmp_path / "lost")
+    spec = cfg.runs()[0]
+    lock_path = cfg.run_dir(spec.run_id) / schema.LOCK
+
+    def thief(s, step, steps):
+        if step == 60:
+            lock_path.write_text(json.dumps({"pid": 1, "host": "other", "started": "x", "token": "thief"}))
+
+    o = run_one(cfg, spec, progress=thief)
+    assert o.outcome == "locked" and "taken over" in o.message
+    assert json.loads(lock_path.read_text())["token"] == "thief"  # the new owner's lock is kept
+    assert not (cfg.run_dir(spec.run_id) / schema.TRAJECTORY).exists()
+    assert read_status(cfg.run_dir(spec.run_id))["status"] == "running"

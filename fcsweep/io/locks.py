@@ -22,11 +22,12 @@ import json
 import os
 import secrets
 import socket
+import threading
 import time
 from pathlib import Path
 from typing import Any
 
-__all__ = ["RunLock", "LockHeld", "lock_info", "lock_is_stale", "pid_alive", "DEFAULT_STALE_AFTER"]
+__all__ = ["RunLock", "LockHeld", "LockLost", "lock_info", "lock_is_stale", "pid_alive", "DEFAULT_STALE_AFTER"]
 
 DEFAULT_STALE_AFTER = float(os.environ.get("FCSWEEP_LOCK_STALE_SECONDS", 900))
 _BREAK_STALE_AFTER = 60.0
@@ -39,6 +40,10 @@ class LockHeld(RuntimeError):
         self.info = info or {}
         who = f"pid {self.info.get('pid')} on {self.info.get('host')}" if info else "another process"
         super().__init__(f"{path} is held by {who} since {self.info.get('started', '?')}")
+
+
+class LockLost(RuntimeError):
+    """Our lock was taken over (e.g. our heartbeat stalled past ``stale_after``)."""
 
 
 def pid_alive(pid: int) -> bool:
@@ -104,6 +109,7 @@ class RunLock:
         self.held_by: dict[str, Any] | None = None
         self.took_over: dict[str, Any] | None = None
         self._last_beat = 0.0
+        self._stop: threading.Event | None = None
 
     def _create(self) -> bool:
         token = secrets.token_hex(8)
@@ -177,8 +183,38 @@ class RunLock:
             pass
         self._last_beat = now
 
+    def start_heartbeat(self, interval: float = 30.0) -> None:
+        """Refresh the mtime every ``interval`` s from a daemon thread (until release).
+
+        The engine's kernels return to Python every few hundred steps, so the thread runs
+        even while a long ``advance`` call is in progress.
+        """
+        if self.token is None or self._stop is not None:
+            return
+        self._stop = threading.Event()
+        stop = self._stop
+
+        def beat() -> None:
+            while not stop.wait(interval):
+                try:
+                    os.utime(self.path)
+                except OSError:
+                    pass
+
+        threading.Thread(target=beat, daemon=True, name=f"fcsweep-heartbeat-{self.path.parent.name}").start()
+
+    def verify(self) -> None:
+        """Raise :class:`LockLost` if the lock file no longer carries our token."""
+        info = lock_info(self.path)
+        if self.token is None or info is None or info.get("token") != self.token:
+            who = f"pid {info.get('pid')} on {info.get('host')}" if info else "nobody"
+            raise LockLost(f"{self.path} was taken over (now held by {who})")
+
     def release(self) -> None:
-        """Remove the lock if it is still ours."""
+        """Stop the heartbeat and remove the lock if it is still ours."""
+        if self._stop is not None:
+            self._stop.set()
+            self._stop = None
         if self.token is None:
             return
         info = lock_info(self.path)

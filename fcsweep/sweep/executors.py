@@ -12,6 +12,7 @@ from __future__ import annotations
 import concurrent.futures as cf
 import multiprocessing as mp
 import os
+import threading
 import time
 from typing import Sequence
 
@@ -26,6 +27,9 @@ __all__ = ["run_sweep", "select_runs", "EXECUTORS"]
 
 EXECUTORS = ("serial", "process", "dask")
 _POLL = 0.5
+#: One run at a time per process for Dask worker threads: numba's parallel kernels may not
+#: be launched from several threads at once with every threading layer (workqueue).
+_THREAD_RUN_LOCK = threading.Lock()
 
 
 def select_runs(cfg: SweepConfig, *, task_index: int | None = None, retry_failed: bool = False) -> list[RunSpec]:
@@ -68,8 +72,10 @@ def _task(cfg: SweepConfig, spec: RunSpec, force: bool, stale_after: float, skip
 
 
 def _spec_task(spec: RunSpec, cfg: SweepConfig, force: bool, stale_after: float, skip_failed: bool) -> RunOutcome:
-    """:func:`_task` with the run first, for ``Client.map``."""
-    return _task(cfg, spec, force, stale_after, skip_failed)
+    """:func:`_task` with the run first, for ``Client.map``; one run per worker process
+    at a time (start Dask workers with ``--nthreads 1`` and several ``--nworkers``)."""
+    with _THREAD_RUN_LOCK:
+        return _task(cfg, spec, force, stale_after, skip_failed)
 
 
 def _describe(o: RunOutcome, spec: RunSpec) -> str:

@@ -50,7 +50,7 @@ from fcsweep.io.h5md import (
     set_attrs,
     truncate_frames,
 )
-from fcsweep.io.locks import DEFAULT_STALE_AFTER, RunLock
+from fcsweep.io.locks import DEFAULT_STALE_AFTER, LockLost, RunLock
 from fcsweep.io.status import read_status, write_status
 
 __all__ = ["RunOutcome", "run_one", "fingerprint_of", "SPILL_BYTES"]
@@ -222,11 +222,15 @@ def run_one(
             f"held by pid {h.get('pid')} on {h.get('host')} since {h.get('started')}",
         )
     t0 = time.time()
+    lock.start_heartbeat()
     try:
         st = read_status(run_dir)  # re-check: another process may have finished meanwhile
         if not force and st and st.get("status") == schema.DONE and traj.exists():
             return RunOutcome(spec.index, spec.run_id, "skipped", "already done", int(st.get("steps_done", 0)))
         return _compute(cfg, spec, run_dir, lock, st or {}, progress, force, t0)
+    except LockLost as exc:  # another process owns the run now: write nothing more
+        lock.token = None
+        return RunOutcome(spec.index, spec.run_id, "locked", f"stopped: {exc}", 0, time.time() - t0)
     except Exception as exc:  # noqa: BLE001 - a failed run must not stop the sweep
         reason = f"{type(exc).__name__}: {exc}"
         prev = read_status(run_dir) or {}
@@ -343,6 +347,7 @@ def _compute(cfg, spec, run_dir: Path, lock: RunLock, prev: dict, progress, forc
 
     def commit() -> None:
         nonlocal written, buffer, buf_bytes
+        lock.verify()
         written = append_frames(partial, buffer, expected_start=written, after_resize=lambda: _hook("h5-append"))
         buffer, buf_bytes = [], 0
 
