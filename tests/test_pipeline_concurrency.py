@@ -26,6 +26,9 @@ run: {{steps: 300, sample_every: 20, checkpoint_every: 100}}
 
 
 def test_two_concurrent_launches_compute_each_run_once(tmp_path):
+    from fcsweep.simulation import Simulation
+
+    Simulation.from_lattice(16, eta=0.1, v0=0.03, seed=0).advance(1)  # fill numba's cache first
     path = tmp_path / "sweep.yaml"
     path.write_text(CONFIG.format(out=tmp_path / "out"))
     cfg = load_config(path)

@@ -50,6 +50,9 @@ exit $rc
 @pytest.fixture()
 def env(tmp_path):
     """PATH with a `fcsweep` shim (this interpreter) and a fake `sbatch`."""
+    from fcsweep.simulation import Simulation
+
+    Simulation.from_lattice(16, eta=0.1, v0=0.03, seed=0).advance(1)  # fill numba's cache first
     bin_dir = tmp_path / "bin"
     bin_dir.mkdir()
     shim = bin_dir / "fcsweep"
