@@ -291,3 +291,17 @@ def test_run_stops_without_writing_when_lock_is_taken_over(done_sweep, tmp_path)
     assert json.loads(lock_path.read_text())["token"] == "thief"  # the new owner's lock is kept
     assert not (cfg.run_dir(spec.run_id) / schema.TRAJECTORY).exists()
     assert read_status(cfg.run_dir(spec.run_id))["status"] == "running"
+
+
+def test_changed_run_settings_are_refused_not_mixed(done_sweep, tmp_path):
+    """Same output dir, more steps: done runs are not silently reused nor overwritten."""
+    path, cfg = done_sweep
+    longer = tmp_path / "longer.yaml"
+    longer.write_text(path.read_text().replace("steps: 200,", "steps: 400,"))
+    traj = cfg.run_dir(cfg.runs()[0].run_id) / schema.TRAJECTORY
+    before = traj.stat().st_mtime_ns
+    r = CliRunner().invoke(cli, ["simulate", str(longer), "--task-index", "0"])
+    assert r.exit_code == 1
+    assert "computed with other run settings (steps 200 -> 400)" in r.output
+    assert traj.stat().st_mtime_ns == before
+    assert read_status(traj.parent)["status"] == "done"

@@ -183,6 +183,31 @@ def _parameters(cfg: SweepConfig, spec: RunSpec, fields, fingerprint: str) -> di
 # ---------------------------------------------------------------------------- run_one
 
 
+def _is_done(st: dict | None, traj: Path, fp: str) -> bool:
+    """Done with these settings; raises RunConflict if done with other settings."""
+    if not st or st.get("status") != schema.DONE or not traj.exists():
+        return False
+    done_fp = st.get("fingerprint")
+    if done_fp is None:  # status written without a fingerprint: ask the trajectory
+        try:
+            done_fp = read_parameters(traj).get("fingerprint")
+        except Exception:  # noqa: BLE001 - unreadable: recompute
+            return False
+    if done_fp != fp:
+        raise RunConflict(_conflict_message(traj, done_fp, fp))
+    return True
+
+
+def _conflict_message(path, have, want) -> str:
+    try:
+        a, b = json.loads(have), json.loads(want)
+        diff = ", ".join(f"{k} {a.get(k)} -> {b.get(k)}" for k in sorted(b) if a.get(k) != b.get(k))
+    except (TypeError, ValueError):
+        diff = f"{have} -> {want}"
+    return (f"{path} was computed with other run settings ({diff}); use another output "
+            "directory (or --force to recompute it)")
+
+
 def run_one(
     cfg: SweepConfig,
     spec: RunSpec,
@@ -211,9 +236,13 @@ def run_one(
     run_dir = cfg.run_dir(spec.run_id)
     run_dir.mkdir(parents=True, exist_ok=True)
     traj = run_dir / schema.TRAJECTORY
+    fp = fingerprint_of(cfg, spec)
     st = read_status(run_dir)
-    if not force and st and st.get("status") == schema.DONE and traj.exists():
-        return RunOutcome(spec.index, spec.run_id, "skipped", "already done", int(st.get("steps_done", 0)))
+    try:
+        if not force and _is_done(st, traj, fp):
+            return RunOutcome(spec.index, spec.run_id, "skipped", "already done", int(st.get("steps_done", 0)))
+    except RunConflict as exc:
+        return RunOutcome(spec.index, spec.run_id, "failed", str(exc))
     lock = RunLock(run_dir / schema.LOCK, stale_after=stale_after)
     if not lock.acquire():
         h = lock.held_by or {}
@@ -225,12 +254,14 @@ def run_one(
     lock.start_heartbeat()
     try:
         st = read_status(run_dir)  # re-check: another process may have finished meanwhile
-        if not force and st and st.get("status") == schema.DONE and traj.exists():
+        if not force and _is_done(st, traj, fp):
             return RunOutcome(spec.index, spec.run_id, "skipped", "already done", int(st.get("steps_done", 0)))
         return _compute(cfg, spec, run_dir, lock, st or {}, progress, force, t0)
     except LockLost as exc:  # another process owns the run now: write nothing more
         lock.token = None
         return RunOutcome(spec.index, spec.run_id, "locked", f"stopped: {exc}", 0, time.time() - t0)
+    except RunConflict as exc:  # the directory holds another sweep's results: touch nothing
+        return RunOutcome(spec.index, spec.run_id, "failed", str(exc), 0, time.time() - t0)
     except Exception as exc:  # noqa: BLE001 - a failed run must not stop the sweep
         reason = f"{type(exc).__name__}: {exc}"
         prev = read_status(run_dir) or {}
@@ -274,13 +305,11 @@ def _compute(cfg, spec, run_dir: Path, lock: RunLock, prev: dict, progress, forc
         try:
             par = read_parameters(traj)
             if par.get("fingerprint") == fp_any and par.get("complete") and frame_count(traj) == n_frames:
-                _write(run_dir, spec, schema.DONE, "", steps, steps, prev, t0, par.get("projections_final", 0))
+                _write(run_dir, spec, schema.DONE, "", steps, steps, prev, t0, par.get("projections_final", 0),
+                       {"fingerprint": fp_any})
                 return RunOutcome(spec.index, spec.run_id, "done", "recovered finished trajectory", steps)
             if par.get("fingerprint") != fp_any:
-                raise RunConflict(
-                    f"{traj} was written with other settings ({par.get('fingerprint')}); this config "
-                    f"needs {fp_any}. Use another output directory or delete the run directory."
-                )
+                raise RunConflict(_conflict_message(traj, par.get("fingerprint"), fp_any))
         except RunConflict:
             raise
         except Exception:  # noqa: BLE001 - unreadable final file: recompute
@@ -298,10 +327,7 @@ def _compute(cfg, spec, run_dir: Path, lock: RunLock, prev: dict, progress, forc
     if ck is not None:
         state, meta = split_meta(ck)
         if meta.get("fingerprint") != fp_any:
-            raise RunConflict(
-                f"{ckp} belongs to other settings ({meta.get('fingerprint')}); this config needs "
-                f"{fp_any}. Use another output directory or delete the run directory."
-            )
+            raise RunConflict(_conflict_message(ckp, meta.get("fingerprint"), fp_any))
         try:
             n = frame_count(partial)
             if n < int(meta["frames"]):
@@ -339,7 +365,7 @@ def _compute(cfg, spec, run_dir: Path, lock: RunLock, prev: dict, progress, forc
         fields = _fields_for(cfg, width)
         buffer = []
 
-    info = {"notes": notes, "attempts": attempts, "wall_before": wall_before}
+    info = {"notes": notes, "attempts": attempts, "wall_before": wall_before, "fingerprint": fp_any}
     _write(run_dir, spec, schema.RUNNING, "; ".join(notes), int(sim.state.step), steps, prev, t0, int(sim.state.projections), info)
     last_status = time.time()
     buf_bytes = sum(_frame_bytes(f) for f in buffer)
@@ -415,5 +441,6 @@ def _write(run_dir, spec, status, reason, step, steps, prev, t0, projections, in
             "host": socket.gethostname(),
             "pid": os.getpid(),
             "updated": _now(),
+            "fingerprint": info.get("fingerprint"),
         },
     )
