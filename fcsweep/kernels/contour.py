@@ -11,8 +11,8 @@ Array conventions (N cells, K contour points, M1 = M - 1 shape modes):
 - ``px, py``      float64[N, 2K+LANES]  contour point offsets x_ik - r_i in the lab
   frame, repeated periodically along the row so that an angular window never wraps
 - ``tx, ty``      like px, py: contour tangents dx/dphi (arc rule only)
-- ``geo``         float64[N, 5]   a0, bounding radius, cos(theta), sin(theta), largest
-  sampled radius
+- ``geo``         float64[N, 5]   a0, bounding radius (rigorous), cos(theta),
+  sin(theta), largest sampled radius
 - ``tbuf``        float64[threads, 9, K + 8]  per-thread window scratch
 """
 
@@ -86,62 +86,72 @@ def fourier6(c, s, a2, a3, a4, a5, a6, b2, b3, b4, b5, b6):
 @njit(parallel=True, **NJIT)
 def geometry(theta, a, b, R0, cosn, sinn, cphi, sphi, R, dR, px, py, tx, ty, tangents, geo):
     """Contour radius, its derivative and lab-frame contour points of every cell
-    (and, if ``tangents``, the contour tangents dx/dphi = R' e + R e_perp)."""
+    (and, if ``tangents``, the contour tangents dx/dphi = R' e + R e_perp).
+
+    Loops use unsigned indices so that numba emits no wraparound checks and LLVM
+    vectorises them across contour points.
+    """
     N, M1 = a.shape
-    K = cphi.shape[0]
+    K = np.uint64(cphi.shape[0])
+    L = np.uint64(px.shape[1])
     for i in prange(N):
+        ui = np.uint64(i)
         s2 = 0.0
         s1 = 0.0
+        sn1 = 0.0
         for m in range(M1):
             q = a[i, m] * a[i, m] + b[i, m] * b[i, m]
             s2 += q
             s1 += math.sqrt(q)
+            sn1 += (m + 2.0) * math.sqrt(q)
         a0 = math.sqrt(1.0 - 0.5 * s2)
         c = math.cos(theta[i])
         s = math.sin(theta[i])
         geo[i, 0] = a0
-        geo[i, 1] = R0 * (a0 + s1)
         geo[i, 2] = c
         geo[i, 3] = s
         if M1 <= 5:
             a2, a3, a4, a5, a6, b2, b3, b4, b5, b6 = modes6(a, b, i)
             for k in range(K):
                 r, d = fourier6(cphi[k], sphi[k], a2, a3, a4, a5, a6, b2, b3, b4, b5, b6)
-                R[i, k] = a0 + r
-                dR[i, k] = d
+                R[ui, k] = a0 + r
+                dR[ui, k] = d
         else:
             for k in range(K):
-                R[i, k] = a0
-                dR[i, k] = 0.0
+                R[ui, k] = a0
+                dR[ui, k] = 0.0
             for m in range(M1):
                 am = a[i, m]
                 bm = b[i, m]
                 n = m + 2.0
                 for k in range(K):
-                    R[i, k] += am * cosn[m, k] + bm * sinn[m, k]
-                    dR[i, k] += n * (bm * cosn[m, k] - am * sinn[m, k])
+                    R[ui, k] += am * cosn[m, k] + bm * sinn[m, k]
+                    dR[ui, k] += n * (bm * cosn[m, k] - am * sinn[m, k])
         rho = 0.0
         for k in range(K):
-            r = R0 * R[i, k]
+            r = R0 * R[ui, k]
+            d = R0 * dR[ui, k]
             rho = max(rho, r)
-            R[i, k] = r
-            dR[i, k] *= R0
-            x = r * (c * cphi[k] - s * sphi[k])
-            y = r * (s * cphi[k] + c * sphi[k])
-            px[i, k] = x
-            py[i, k] = y
-        for k in range(K, px.shape[1]):
-            px[i, k] = px[i, k - K]
-            py[i, k] = py[i, k - K]
+            R[ui, k] = r
+            dR[ui, k] = d
+            ex = c * cphi[k] - s * sphi[k]
+            ey = s * cphi[k] + c * sphi[k]
+            px[ui, k] = r * ex
+            py[ui, k] = r * ey
+            if tangents:
+                tx[ui, k] = d * ex - r * ey
+                ty[ui, k] = d * ey + r * ex
+        for k in range(K, L):
+            px[ui, k] = px[ui, k - K]
+            py[ui, k] = py[ui, k - K]
         if tangents:
-            for k in range(K):
-                q = dR[i, k] / R[i, k]
-                tx[i, k] = q * px[i, k] - py[i, k]
-                ty[i, k] = q * py[i, k] + px[i, k]
-            for k in range(K, tx.shape[1]):
-                tx[i, k] = tx[i, k - K]
-                ty[i, k] = ty[i, k - K]
+            for k in range(K, L):
+                tx[ui, k] = tx[ui, k - K]
+                ty[ui, k] = ty[ui, k - K]
         geo[i, 4] = rho
+        # rigorous bounding radius: R0 (a0 + sum |c_n|), or the largest sample plus the
+        # most R can rise within half a point spacing, (pi/K) max|R'| <= (pi/K) R0 sum n|c_n|
+        geo[i, 1] = min(R0 * (a0 + s1), rho + math.pi / cphi.shape[0] * R0 * sn1)
 
 
 @njit(**NJIT)
@@ -431,46 +441,45 @@ def cell_rates(i, theta, a, b, geo, R, dR, cosn, sinn, cphi, sphi, W, acc, R0, e
                dpos, dth, da, db):
     """Rates of cell i from its point weights ``W[i]`` and arc integrals ``acc[i]``.
 
+    ``W[i]`` is periodic with period K (windows never wrap); it is folded first.
     ``acc[i]`` holds, for the arc rule, the integrals over overlap arcs of
     [force x, force y, torque, R, R cos n phi (M1), R sin n phi (M1)].
+    ``W[i]`` and ``R[i]`` are used as scratch afterwards (both are rebuilt every step).
     """
-    K = cphi.shape[0]
+    K = np.uint64(cphi.shape[0])
+    L = np.uint64(W.shape[1])
     M1 = a.shape[1]
-    dphi = 2.0 * math.pi / K
+    ui = np.uint64(i)
+    dphi = 2.0 * math.pi / cphi.shape[0]
     c = geo[i, 2]
     s = geo[i, 3]
     a0 = geo[i, 0]
+    for k in range(K, L - K):
+        W[ui, k] += W[ui, k + K]
+    for k in range(K, L):
+        W[ui, k - K] += W[ui, k]
     fx = 0.0
     fy = 0.0
     tq = 0.0
     usum = 0.0
     for k in range(K):
-        w = W[i, k]
-        for kk in range(k + K, W.shape[1], K):
-            w += W[i, kk]
-        W[i, k] = w
-        r = R[i, k]
-        d = dR[i, k]
+        w = W[ui, k]
+        r = R[ui, k]
+        d = dR[ui, k]
         ex = c * cphi[k] - s * sphi[k]
         ey = s * cphi[k] + c * sphi[k]
         fx += w * (-d * ey - r * ex)
         fy += w * (d * ex - r * ey)
         tq += w * r * d
-    fx = fx * dphi + acc[i, 0]
-    fy = fy * dphi + acc[i, 1]
-    tq = tq * dphi + acc[i, 2]
-    dpos[i, 0] = v0 * c + fx
-    dpos[i, 1] = v0 * s + fy
-    dth[i] = mu_theta * tq
-    # u_k = w R + eta R/s and v_k = eta R'/s (perimeter gradient on the same points)
-    for k in range(K):
-        r = R[i, k]
-        d = dR[i, k]
+        # u_k = w R + eta R/s and v_k = eta R'/s (perimeter gradient on the same points)
         inv_s = 1.0 / math.sqrt(r * r + d * d)
-        W[i, k] = (W[i, k] * r + eta * r * inv_s) * dphi  # reuse W as u_k dphi
-        usum += W[i, k]
-        dR_over_s = eta * d * inv_s * dphi
-        R[i, k] = dR_over_s  # reuse R as v_k dphi (R is recomputed next step)
+        u = (w * r + eta * r * inv_s) * dphi
+        W[ui, k] = u
+        usum += u
+        R[ui, k] = eta * d * inv_s * dphi
+    dpos[i, 0] = v0 * c + fx * dphi + acc[i, 0]
+    dpos[i, 1] = v0 * s + fy * dphi + acc[i, 1]
+    dth[i] = mu_theta * (tq * dphi + acc[i, 2])
     usum += acc[i, 3]
     for m in range(M1):
         n = m + 2.0
@@ -479,8 +488,8 @@ def cell_rates(i, theta, a, b, geo, R, dR, cosn, sinn, cphi, sphi, W, acc, R0, e
         vc = 0.0
         vs = 0.0
         for k in range(K):
-            u = W[i, k]
-            v = R[i, k]
+            u = W[ui, k]
+            v = R[ui, k]
             uc += u * cosn[m, k]
             us += u * sinn[m, k]
             vc += v * cosn[m, k]
@@ -497,7 +506,9 @@ def all_rates(pos, theta, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shap
               nx, ny, cell_of, cell_start, cell_members, dpos, dth, da, db):
     """Deterministic rates of every cell (geometry must be current).
 
-    With ``nx, ny >= 3`` the cell list is used with minimum-image pairs; otherwise every
+    With ``nx, ny >= 3`` the cell list is used (grid cells at least as wide as the
+    largest interaction range, so the periodic shift of each neighbouring grid cell is
+    the minimum image); otherwise every
     cell and every one of the 9 periodic images (or, for open boundaries, the direct
     pair only) is visited.  Each iteration writes only to row i, so the result does not
     depend on the number of threads.
@@ -518,29 +529,32 @@ def all_rates(pos, theta, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shap
             cy = c // nx
             for ox in range(-1, 2):
                 ccx = cx + ox
+                sxL = 0.0  # periodic shift of this column of grid cells
                 if ccx < 0:
                     ccx += nx
+                    sxL = -Lx
                 elif ccx >= nx:
                     ccx -= nx
+                    sxL = Lx
                 for oy in range(-1, 2):
                     ccy = cy + oy
+                    syL = 0.0
                     if ccy < 0:
                         ccy += ny
+                        syL = -Ly
                     elif ccy >= ny:
                         ccy -= ny
+                        syL = Ly
                     cc = ccy * nx + ccx
                     for p in range(cell_start[cc], cell_start[cc + 1]):
                         j = cell_members[p]
-                        if j == i:
-                            continue
-                        dx = pos[j, 0] - xi
-                        dy = pos[j, 1] - yi
-                        dx -= Lx * np.rint(dx / Lx)
-                        dy -= Ly * np.rint(dy / Ly)
+                        dx = pos[j, 0] + sxL - xi
+                        dy = pos[j, 1] + syL - yi
                         cut = rbi + geo[j, 1]
-                        if dx * dx + dy * dy >= cut * cut:
+                        if dx * dx + dy * dy >= cut * cut or j == i:
                             continue
-                        pair_weights(i, j, dx, dy, theta, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad, W, tbuf, tid, acc)
+                        pair_weights(i, j, dx, dy, theta, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad,
+                                     W, tbuf, tid, acc)
         else:
             nimg = 1 if periodic else 0
             for j in range(N):
