@@ -11,6 +11,7 @@ usage (nothing was written).
 from __future__ import annotations
 
 import json
+import signal
 import sys
 from pathlib import Path
 
@@ -23,6 +24,19 @@ OUTPUT_OPT = click.option(
     "--output", "-o", type=click.Path(file_okay=False), default=None,
     help="Override the config's output directory.",
 )
+
+
+def _sigterm(signum, frame):
+    raise SystemExit(128 + signum)
+
+
+def _exit_on_sigterm():
+    """Turn SIGTERM (batch time limits, scancel) into SystemExit, so that runs release their
+    locks and keep their last checkpoint; returns the previous handler."""
+    try:
+        return signal.signal(signal.SIGTERM, _sigterm)
+    except ValueError:  # not the main thread
+        return None
 
 
 def _load(config: str | None, output: str | None = None) -> SweepConfig:
@@ -85,12 +99,15 @@ def simulate(config, output, workers, executor, scheduler, task_index, retry_fai
     click.echo(f"fcsweep: {len(specs)} run(s) of {src} -> {cfg.output} [{executor}"
                f"{', ' + str(workers) + ' workers' if executor == 'process' else ''}]", err=True)
     progress = Progress(len(specs), log_every=log_every, enabled=not quiet)
+    previous = _exit_on_sigterm()
     try:
         outcomes = run_sweep(cfg, specs, executor=executor, workers=workers, scheduler=scheduler,
                              progress=progress, force=force, retry_failed=retry_failed,
                              stale_after=lock_timeout or DEFAULT_STALE_AFTER)
     finally:
         progress.close()
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
     counts = {k: sum(o.outcome == k for o in outcomes) for k in ("done", "skipped", "locked", "failed")}
     click.echo(
         f"fcsweep: {counts['done']} computed, {counts['skipped']} already done, "

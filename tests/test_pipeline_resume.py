@@ -119,15 +119,17 @@ def test_external_sigkill_mid_run_then_resume(sweep, tmp_path):
     spec = cfg.runs()[5]
     cfg_file = tmp_path / "c.yaml"
     cfg_file.write_text(CONFIG.format(out=cfg.output))
-    p = _simulate(cfg_file, "--task-index", "5")
+    p = _simulate(cfg_file, "--task-index", "5", env={"FCSWEEP_TEST_SLOW": "0.03"})
     ck = cfg.run_dir(spec.run_id) / schema.CHECKPOINT
     t0 = time.time()
     while not ck.exists() and p.poll() is None and time.time() - t0 < 60:
         time.sleep(0.002)
+    time.sleep(0.05)
     p.send_signal(signal.SIGKILL)
     p.communicate(timeout=60)
+    assert p.returncode == -signal.SIGKILL
     (o,) = run_sweep(cfg, [spec])
-    assert o.outcome == "done"
+    assert o.outcome == "done" and "resumed from step" in o.message
     assert_same_trajectory(cfg.run_dir(spec.run_id) / schema.TRAJECTORY,
                            ref.run_dir(spec.run_id) / schema.TRAJECTORY)
 
@@ -147,5 +149,33 @@ def test_corrupt_partial_trajectory_restarts_from_scratch(sweep, tmp_path):
         fh.write(b"\0" * 512)
     (o,) = run_sweep(cfg, [spec])
     assert o.outcome == "done" and "restarted from step 0" in o.message
+    assert_same_trajectory(cfg.run_dir(spec.run_id) / schema.TRAJECTORY,
+                           ref.run_dir(spec.run_id) / schema.TRAJECTORY)
+
+
+def test_sigterm_releases_lock_and_run_resumes(sweep, tmp_path):
+    """A batch time limit (SIGTERM) leaves an interrupted run with no lock, resumable."""
+    from click.testing import CliRunner
+
+    from fcsweep.cli import cli
+
+    _, cfg, ref = sweep
+    cfg = cfg.with_output(tmp_path / "term")
+    spec = cfg.runs()[3]
+    cfg_file = tmp_path / "c.yaml"
+    cfg_file.write_text(CONFIG.format(out=cfg.output))
+    p = _simulate(cfg_file, "--task-index", "3", env={"FCSWEEP_TEST_SLOW": "0.05"})
+    ck = cfg.run_dir(spec.run_id) / schema.CHECKPOINT
+    t0 = time.time()
+    while not ck.exists() and p.poll() is None and time.time() - t0 < 60:
+        time.sleep(0.002)
+    p.send_signal(signal.SIGTERM)
+    p.communicate(timeout=60)
+    assert p.returncode == 128 + signal.SIGTERM
+    assert not (cfg.run_dir(spec.run_id) / schema.LOCK).exists()
+    r = CliRunner().invoke(cli, ["status", str(cfg_file)])
+    assert f"{spec.run_id}  interrupted" in r.output
+    (o,) = run_sweep(cfg, [spec])
+    assert o.outcome == "done" and "resumed from step" in o.message
     assert_same_trajectory(cfg.run_dir(spec.run_id) / schema.TRAJECTORY,
                            ref.run_dir(spec.run_id) / schema.TRAJECTORY)

@@ -12,6 +12,7 @@ from __future__ import annotations
 import concurrent.futures as cf
 import multiprocessing as mp
 import os
+import signal
 import threading
 import time
 from typing import Sequence
@@ -51,7 +52,12 @@ def _cores() -> int:
         return os.cpu_count() or 1
 
 
+def _sigterm(signum, frame):
+    raise SystemExit(128 + signum)
+
+
 def _init_worker(threads: int) -> None:
+    signal.signal(signal.SIGTERM, _sigterm)  # release the run lock on termination
     os.environ["NUMBA_NUM_THREADS"] = str(threads)
     try:
         import numba
@@ -134,8 +140,15 @@ def run_sweep(
         with cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_worker,
                                     initargs=(threads,)) as pool:
             futs = [pool.submit(_task, cfg, s, force, stale_after, skip_failed) for s in specs]
-            return _collect(cfg, specs, futs, progress, workers,
-                            done=lambda f: f.done(), result=lambda f: f.result())
+            try:
+                return _collect(cfg, specs, futs, progress, workers,
+                                done=lambda f: f.done(), result=lambda f: f.result())
+            except BaseException:  # SIGTERM / Ctrl-C: stop workers so they release their locks
+                for f in futs:
+                    f.cancel()
+                for proc in list(getattr(pool, "_processes", {}).values()):
+                    proc.terminate()
+                raise
     # dask
     if not scheduler:
         raise ValueError("--executor dask needs --scheduler ADDRESS (e.g. tcp://host:8786)")

@@ -23,6 +23,8 @@ Testing hooks (environment variables, read at run time):
     ``frame`` (a frame was sampled), ``h5-append`` (datasets grown, data not yet written),
     ``checkpoint-write`` (temporary checkpoint written, not yet renamed), ``checkpoint``
     (checkpoint in place), ``finalize`` (trajectory renamed, status not yet written).
+``FCSWEEP_TEST_SLOW``
+    Seconds to sleep after each frame, so that tests can signal a run mid-way.
 """
 
 from __future__ import annotations
@@ -115,6 +117,12 @@ def _hook(point: str) -> None:
     _kill_counts[point] = _kill_counts.get(point, 0) + 1
     if _kill_counts[point] == int(k or 1):
         os.kill(os.getpid(), signal.SIGKILL)
+
+
+def _slow() -> None:
+    delay = os.environ.get("FCSWEEP_TEST_SLOW")
+    if delay:
+        time.sleep(float(delay))
 
 
 def _injected_failure(run_id: str) -> None:
@@ -386,6 +394,7 @@ def _compute(cfg, spec, run_dir: Path, lock: RunLock, prev: dict, progress, forc
         buffer.append(frame)
         buf_bytes += _frame_bytes(frame)
         _hook("frame")
+        _slow()
         step = int(sim.state.step)
         if step % ce == 0 or step >= steps:
             commit()
