@@ -305,3 +305,15 @@ def test_changed_run_settings_are_refused_not_mixed(done_sweep, tmp_path):
     assert "computed with other run settings (steps 200 -> 400)" in r.output
     assert traj.stat().st_mtime_ns == before
     assert read_status(traj.parent)["status"] == "done"
+
+
+def test_spilling_frames_between_checkpoints_gives_same_file(done_sweep, tmp_path, monkeypatch):
+    """Frames written early (buffer over SPILL_BYTES) change nothing in the result."""
+    from fcsweep.sweep import runner
+
+    _, ref = done_sweep
+    monkeypatch.setattr(runner, "SPILL_BYTES", 0)  # append after every frame
+    cfg = ref.with_output(tmp_path / "spill")
+    spec = cfg.runs()[1]
+    assert runner.run_one(cfg, spec).outcome == "done"
+    _same(cfg.run_dir(spec.run_id) / schema.TRAJECTORY, ref.run_dir(spec.run_id) / schema.TRAJECTORY)
