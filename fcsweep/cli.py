@@ -104,6 +104,11 @@ def simulate(config, output, workers, executor, scheduler, task_index, retry_fai
         outcomes = run_sweep(cfg, specs, executor=executor, workers=workers, scheduler=scheduler,
                              progress=progress, force=force, retry_failed=retry_failed,
                              stale_after=lock_timeout or DEFAULT_STALE_AFTER)
+    except (OSError, TimeoutError) as exc:
+        if executor != "dask":
+            raise
+        click.echo(f"fcsweep: cannot reach the Dask scheduler at {scheduler}: {exc}", err=True)
+        sys.exit(2)
     finally:
         progress.close()
         if previous is not None:

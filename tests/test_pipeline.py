@@ -9,7 +9,6 @@ import os
 import socket
 import subprocess
 import time
-from pathlib import Path
 
 import h5py
 import numpy as np
