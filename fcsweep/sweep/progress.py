@@ -59,8 +59,10 @@ class Progress:
         if self.interactive:
             bar = self._bars.get(key)
             if bar is None:
+                used = {getattr(b, "pos", 0) for b in self._bars.values()}
+                free = next(i for i in range(1, len(used) + 2) if i not in used and -i not in used)
                 bar = self._tqdm(total=steps, desc=label[:40], unit="step", leave=False,
-                                 file=self.stream, position=1 + len(self._bars))
+                                 file=self.stream, position=free)
                 self._bars[key] = bar
             bar.n = step
             bar.refresh()

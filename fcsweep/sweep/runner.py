@@ -411,6 +411,7 @@ def _compute(cfg, spec, run_dir: Path, lock: RunLock, prev: dict, progress, forc
         if progress is not None:
             progress(spec, step, steps)
         if time.time() - last_status > STATUS_INTERVAL:
+            lock.verify()
             _write(run_dir, spec, schema.RUNNING, "; ".join(notes), step, steps, prev, t0, int(sim.state.projections), info)
             last_status = time.time()
     if buffer:  # only when resuming at the very end with frames pending (not expected)
