@@ -8,6 +8,8 @@ visits every cell and every periodic image (tiny boxes only).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
@@ -15,11 +17,20 @@ from .options import NJIT
 
 
 @njit(**NJIT)
-def grid_shape(Lx, Ly, cutoff):
-    """Number of cells along x and y for a cell side of at least ``cutoff``."""
-    nx = int(Lx // cutoff)
-    ny = int(Ly // cutoff)
-    return max(nx, 1), max(ny, 1)
+def grid_shape(Lx, Ly, cutoff, N):
+    """Number of grid cells along x and y for a side of at least ``cutoff``.
+
+    In dilute systems the grid is coarsened to at most ``max(4 N, 9)`` cells (sides
+    stay >= cutoff), so that building the list costs O(N), not O(box area).
+    """
+    nx = max(int(Lx // cutoff), 1)
+    ny = max(int(Ly // cutoff), 1)
+    cap = max(4 * N, 9)
+    if nx * ny > cap:
+        f = math.sqrt(nx * ny / cap)
+        nx = max(3, int(nx / f))
+        ny = max(3, int(ny / f))
+    return nx, ny
 
 
 @njit(**NJIT)

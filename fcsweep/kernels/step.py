@@ -95,7 +95,7 @@ def compute_rates(pos, theta, a, b, prm, periodic, quad, tables, scratch, cl, ou
         rbmax = 0.0
         for i in range(pos.shape[0]):
             rbmax = max(rbmax, geo[i, 1])
-        nx, ny = grid_shape(Lx, Ly, 2.0 * rbmax)
+        nx, ny = grid_shape(Lx, Ly, 2.0 * rbmax, pos.shape[0])
         if nx >= 3 and ny >= 3 and (nx * ny + 1) <= cell_start.shape[0]:
             build_cell_list(pos, Lx, Ly, nx, ny, cell_of, cell_start, cell_members)
         else:

@@ -41,7 +41,7 @@ class Workspace:
             ncell = 1
         else:
             side = 2.0 * R0 / math.sqrt(3.0) * 0.999
-            ncell = int(box[0] // side + 1) * int(box[1] // side + 1)
+            ncell = min(int(box[0] // side + 1) * int(box[1] // side + 1), max(4 * N, 9))
         self.cl = (np.zeros(N, np.int64), np.zeros(ncell + 1, np.int64), np.zeros(N, np.int64))
         self.out = (np.zeros((N, 2)), np.zeros(N), np.zeros((N, M1)), np.zeros((N, M1)))
         self.flags = np.zeros(N, np.int64)

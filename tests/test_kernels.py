@@ -1,0 +1,50 @@
+"""Numba kernels against their numpy twin (fcsweep.model.rates), and kernel helpers."""
+
+import math
+
+import numpy as np
+import pytest
+
+from conftest import dense_config
+from fcsweep.kernels.api import kernel_rates
+from fcsweep.kernels.contour import atan2_fast
+from fcsweep.model.rates import rates
+
+KEYS = ("dpos", "dtheta", "da", "db")
+
+
+def assert_same(r1, r2, tol=1e-11):
+    for k in KEYS:
+        scale = max(1.0, np.abs(r1[k]).max())
+        assert np.abs(r1[k] - r2[k]).max() <= tol * scale, k
+
+
+@pytest.mark.parametrize("quadrature", ["binary", "linear"])
+@pytest.mark.parametrize("N,M1,deform", [(16, 5, 0.1), (144, 5, 0.15), (64, 7, 0.2), (36, 1, 0.3), (64, 5, 0.8)])
+def test_kernel_equals_numpy_twin(quadrature, N, M1, deform):
+    """Windows, cell list (N >= 64), all-image path (N = 16, 36), generic M (M1 = 7) and
+    shapes at the admissibility bound (0.8 of 0.816) give the twin's rates to round-off."""
+    pos, theta, a, b, box = dense_config(N, seed=N + M1, deform=deform, M1=M1)
+    kw = dict(eta=0.05, v0=0.03, box=box, contour_points=40, quadrature=quadrature)
+    assert_same(rates(pos, theta, a, b, **kw), kernel_rates(pos, theta, a, b, **kw))
+
+
+def test_kernel_equals_twin_with_open_boundaries_and_other_K():
+    pos, theta, a, b, _ = dense_config(16, seed=5)
+    for K in (24, 64):
+        kw = dict(eta=0.02, v0=0.0, box=None, contour_points=K, quadrature="binary")
+        assert_same(rates(pos, theta, a, b, **kw), kernel_rates(pos, theta, a, b, **kw))
+
+
+def test_atan2_fast_error_below_window_margin():
+    rng = np.random.default_rng(0)
+    y, x = rng.normal(size=(2, 100000))
+    err = np.array([abs(atan2_fast(yy, xx) - math.atan2(yy, xx)) for yy, xx in zip(y[:5000], x[:5000])])
+    assert err.max() < 2e-5  # the window margin is 1e-3 rad
+
+
+def test_far_apart_cells_do_not_interact():
+    pos = np.array([[0.0, 0.0], [2.5, 0.0]])
+    z = np.zeros((2, 5))
+    r = kernel_rates(pos, np.array([0.0, 1.0]), z, z, eta=0.1, v0=0.0)
+    assert np.all(r["dpos"] == 0) and np.all(r["dtheta"] == 0)

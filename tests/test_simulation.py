@@ -1,0 +1,177 @@
+"""Simulation: reproducibility, continuation, thread independence, hard cases, errors."""
+
+import math
+
+import numba
+import numpy as np
+import pytest
+
+from fcsweep.model.shape import ADMISSIBLE_BOUND, amplitude_sum
+from fcsweep.simulation import Simulation, SimulationError
+
+FIELDS = ("pos", "image", "theta", "a", "b")
+
+
+def snapshot(sim):
+    return {k: getattr(sim.state, k).copy() for k in FIELDS}
+
+
+def assert_bitwise(s1, s2):
+    for k in FIELDS:
+        assert np.array_equal(s1[k], s2[k]), k
+
+
+def make(**kw):
+    args = dict(N=64, eta=0.03, v0=0.06, Dr=0.1, seed=7)
+    args.update(kw)
+    return Simulation.from_lattice(**args)
+
+
+def test_issue_example_runs():
+    s = Simulation.from_lattice(N=1024, eta=0.03, v0=0.06, Dr=0.1, seed=1)
+    s.advance(20)
+    assert s.state.pos.shape == (1024, 2)
+    assert s.state.step == 20 and s.time == pytest.approx(0.1)
+
+
+def test_same_seed_same_run_other_seed_other_run():
+    a, b, c = make(), make(), make(seed=8)
+    for s in (a, b, c):
+        s.advance(300)
+    assert_bitwise(snapshot(a), snapshot(b))
+    assert not np.array_equal(a.state.pos, c.state.pos)
+
+
+def test_chunking_and_checkpoint_continue_bit_for_bit(tmp_path):
+    ref = make()
+    ref.advance(700)
+    sim = make()
+    sim.advance(123)
+    sim.advance(77)
+    sim.save(tmp_path / "ck.npz")
+    again = Simulation.load(tmp_path / "ck.npz")
+    again.advance(500)
+    assert again.state.step == 700
+    assert_bitwise(snapshot(ref), snapshot(again))
+    dict_copy = Simulation.from_checkpoint(sim.to_checkpoint())
+    dict_copy.advance(500)
+    assert_bitwise(snapshot(ref), snapshot(dict_copy))
+    assert dict_copy.params == ref.params
+
+
+@pytest.mark.parametrize("quadrature", ["binary", "arc"])
+def test_results_independent_of_thread_count(quadrature):
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        pytest.skip("needs 2 threads")
+    out = []
+    for threads in (1, 2):
+        numba.set_num_threads(threads)
+        s = make(N=144, quadrature=quadrature)
+        s.advance(200)
+        out.append(snapshot(s))
+    numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+    assert_bitwise(*out)
+
+
+def test_images_track_unwrapped_motion():
+    s = make(N=16, v0=0.5, eta=0.1, Dr=0.0, density=0.3, dt=0.01)
+    start = s.state.unwrapped().copy()
+    s.advance(2000)
+    st = s.state
+    assert np.all((st.pos >= 0) & (st.pos < st.box))
+    assert np.abs(st.image).max() >= 1  # cells crossed the box
+    assert np.all(np.isfinite(st.unwrapped() - start))
+
+
+@pytest.mark.parametrize("kw", [
+    dict(eta=0.001, v0=0.06),              # very low tension
+    dict(eta=0.03, v0=0.2),                # high propulsion
+    dict(eta=0.0, v0=0.1),                 # no tension at all
+    dict(eta=0.03, v0=0.06, dt=0.05),      # ten times the paper's step
+])
+def test_hard_cases_stay_finite_and_admissible_or_fail_clearly(kw):
+    s = make(N=36, **kw)
+    try:
+        s.advance(1500)
+    except SimulationError as e:  # allowed, but only with a clear message
+        assert "dt=" in str(e) and "try dt=" in str(e)
+        return
+    st = s.state
+    for k in FIELDS:
+        assert np.all(np.isfinite(getattr(st, k)))
+    assert np.all(amplitude_sum(st.a, st.b) < ADMISSIBLE_BOUND)
+
+
+def test_low_tension_high_speed_hits_the_bound_and_projections_are_counted():
+    s = make(N=36, eta=0.0005, v0=0.2)
+    s.advance(3000)
+    assert s.state.projections > 0
+    assert amplitude_sum(s.state.a, s.state.b).max() <= 0.99 * ADMISSIBLE_BOUND + 1e-12
+
+
+def test_large_initial_overlaps_of_half_R0_relax():
+    """Centres 1.5 R0 apart (overlap depth 0.5 R0): finite, and the cells separate."""
+    s = Simulation.from_lattice(4, eta=0.05, v0=0.0, Dr=0.0, seed=1, density=0.2)
+    st = s.state
+    st.pos[1] = st.pos[0] + [1.5, 0.0]
+    s.advance(2000)
+    d = st.pos[1] - st.pos[0]
+    d -= st.box * np.rint(d / st.box)
+    assert np.all(np.isfinite(st.pos)) and np.hypot(*d) > 1.9
+
+
+def test_shapes_at_the_admissibility_bound_stay_admissible():
+    s = make(N=36, eta=0.001, v0=0.1)
+    rng = np.random.default_rng(0)
+    c = rng.normal(size=(36, 5)) + 1j * rng.normal(size=(36, 5))
+    c *= 0.989 * ADMISSIBLE_BOUND / np.abs(c).sum(axis=1, keepdims=True)
+    s.state.a[:] = c.real
+    s.state.b[:] = c.imag
+    s.advance(500)
+    assert np.all(amplitude_sum(s.state.a, s.state.b) < ADMISSIBLE_BOUND)
+    assert np.all(np.isfinite(s.state.pos))
+
+
+def test_nan_never_passes_silently():
+    s = make(N=16)
+    s.state.a[3, 0] = np.nan
+    with pytest.raises(SimulationError, match="non-finite"):
+        s.advance(10)
+
+
+def test_huge_dt_stops_with_a_safer_dt():
+    s = make(N=36, v0=0.06, dt=5.0, Dr=0.0)
+    with pytest.raises(SimulationError, match=r"try dt=1\.25"):
+        s.advance(10)
+
+
+@pytest.mark.parametrize("kw,msg", [
+    (dict(N=1000), "Nearest valid values: 900"),
+    (dict(eta=-1), "eta must be >= 0"),
+    (dict(dt=0), "dt must be > 0"),
+    (dict(density=1.2), r"density must be in \(0, 1\)"),
+    (dict(quadrature="gauss"), "quadrature must be one of"),
+    (dict(modes=1), "modes must be"),
+])
+def test_bad_parameters_are_clear_errors(kw, msg):
+    with pytest.raises(ValueError, match=msg):
+        make(**kw)
+
+
+def test_isolated_active_cells_diffuse_with_D0():
+    """Property 6: without contacts MSD -> 4 D0 t, D0 = v0^2/(2 D_r), so D_eff -> 1."""
+    from fcsweep.analysis.diffusion import effective_diffusion, fit_diffusion
+    from fcsweep.analysis.msd import msd_curve
+
+    v0, Dr, dt = 0.5, 1.0, 0.02
+    s = Simulation.from_lattice(400, eta=0.1, v0=v0, Dr=Dr, seed=3, density=0.002, dt=dt)
+    frames = []
+    for _ in range(400):
+        frames.append(s.state.unwrapped().copy())
+        s.advance(25)  # 0.5 time units per frame, T = 200 / D_r
+    x = np.array(frames)
+    msd, blocks = msd_curve(x)
+    t = np.arange(len(x)) * 25 * dt
+    fit = fit_diffusion(t, msd, msd_blocks=blocks)
+    D_eff, err = effective_diffusion(fit.D, fit.D_err, v0, Dr)
+    assert abs(D_eff - 1.0) < max(4 * err, 0.05), (D_eff, err)
