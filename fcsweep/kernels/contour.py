@@ -366,7 +366,7 @@ def window_gaps_generic(i, j, dx, dy, k0, cnt, slopes, a, b, geo, R, dR, px, py,
             tb[tid, 7, m] = (R0 * tb[tid, 7, m] * dpsi - (ox * tx + oy * ty) * inv) * h
 
 
-@njit(inline="always", **NJIT)
+@njit(**NJIT)
 def pair_weights(i, j, dx, dy, theta, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad, W, tb, tid, acc):
     """Add the overlap weights of cell j onto the contour points of cell i.
 
@@ -436,7 +436,7 @@ def pair_weights(i, j, dx, dy, theta, a, b, geo, R, dR, px, py, tx, ty, cphi, sp
         W[i, kk1] += second
 
 
-@njit(inline="always", **NJIT)
+@njit(**NJIT)
 def cell_rates(i, theta, a, b, geo, R, dR, cosn, sinn, cphi, sphi, W, acc, R0, eta, v0, mu_theta, mu_shape,
                dpos, dth, da, db):
     """Rates of cell i from its point weights ``W[i]`` and arc integrals ``acc[i]``.
