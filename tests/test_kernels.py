@@ -48,3 +48,24 @@ def test_far_apart_cells_do_not_interact():
     z = np.zeros((2, 5))
     r = kernel_rates(pos, np.array([0.0, 1.0]), z, z, eta=0.1, v0=0.0)
     assert np.all(r["dpos"] == 0) and np.all(r["dtheta"] == 0)
+
+
+@pytest.mark.parametrize("N", [16, 144])
+def test_rigid_disc_path_equals_exact_lens_force(N):
+    """modes = 0: the exact lens force (chord along the line of centres), kernel = twin."""
+    pos, theta, a, b, box = dense_config(N, seed=N, M1=0)
+    kw = dict(eta=0.1, v0=0.05, box=box)
+    assert_same(rates(pos, theta, a, b, **kw), kernel_rates(pos, theta, a, b, **kw))
+    d = 1.3
+    r = kernel_rates(np.array([[0.0, 0.0], [d, 0.0]]), np.zeros(2), np.zeros((2, 0)), np.zeros((2, 0)), eta=0, v0=0)
+    assert r["dpos"][0, 0] == pytest.approx(-2 * math.sqrt(1 - d * d / 4), rel=1e-14)
+    assert np.all(r["dtheta"] == 0)
+
+
+def test_rigid_disc_simulation_runs_and_keeps_theta_diffusing_only():
+    from fcsweep.simulation import Simulation
+
+    s = Simulation.from_lattice(64, eta=0.0, v0=0.05, Dr=0.1, seed=2, modes=0)
+    s.advance(500)
+    assert s.state.a.shape == (64, 0)
+    assert np.all(np.isfinite(s.state.pos))

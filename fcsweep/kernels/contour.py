@@ -110,6 +110,10 @@ def geometry(theta, a, b, R0, cosn, sinn, cphi, sphi, R, dR, px, py, tx, ty, tan
         geo[i, 0] = a0
         geo[i, 2] = c
         geo[i, 3] = s
+        if M1 == 0:  # rigid discs: no contour is needed
+            geo[i, 1] = R0
+            geo[i, 4] = R0
+            continue
         if M1 <= 5:
             a2, a3, a4, a5, a6, b2, b3, b4, b5, b6 = modes6(a, b, i)
             for k in range(K):
@@ -377,6 +381,14 @@ def pair_weights(i, j, dx, dy, theta, a, b, geo, R, dR, px, py, tx, ty, cphi, sp
     K = cphi.shape[0]
     rbj = geo[j, 1]
     D = math.sqrt(dx * dx + dy * dy)
+    if a.shape[1] == 0:
+        # rigid discs: the exact lens-overlap force, the chord 2 sqrt(R0^2 - D^2/4)
+        # along the line of centres, pushing i away from j
+        if D < 2.0 * R0 and D > 0.0:
+            chord = 2.0 * math.sqrt(R0 * R0 - 0.25 * D * D)
+            acc[i, 0] -= chord * dx / D
+            acc[i, 1] -= chord * dy / D
+        return
     if quad == QUAD_BINARY:
         k0, cnt = angular_window(dx, dy, D, geo[i, 2], geo[i, 3], geo[i, 4], rbj, K)
         if a.shape[1] <= 5:
@@ -454,6 +466,11 @@ def cell_rates(i, theta, a, b, geo, R, dR, cosn, sinn, cphi, sphi, W, acc, R0, e
     c = geo[i, 2]
     s = geo[i, 3]
     a0 = geo[i, 0]
+    if M1 == 0:  # rigid discs: no torque, no shape
+        dpos[i, 0] = v0 * c + acc[i, 0]
+        dpos[i, 1] = v0 * s + acc[i, 1]
+        dth[i] = 0.0
+        return
     for k in range(K, L - K):
         W[ui, k] += W[ui, k + K]
     for k in range(K, L):

@@ -156,6 +156,26 @@ def rates_from_occupancy(o, theta, a, b, *, eta, v0, R0=1.0, mu_theta=1.0, mu_sh
     return {"dpos": dpos, "dtheta": dtheta, "da": da, "db": db}
 
 
+def disc_rates(pos, theta, *, v0, box=None, R0=1.0):
+    """Rigid discs (``modes = 0``, the high-tension limit): the exact overlap-area force.
+
+    The overlap of two discs at distance d < 2 R0 is a lens; minus its gradient with
+    respect to r_i is the chord 2 sqrt(R0^2 - d^2/4) along (r_i - r_j)/d.  No torque.
+    """
+    N = len(pos)
+    dpos = v0 * np.stack([np.cos(theta), np.sin(theta)], axis=-1)
+    for i in range(N):
+        for j in range(N):
+            for shift in _images(box):
+                if i == j and not shift.any():
+                    continue
+                d = pos[j] + shift - pos[i]
+                dist = float(np.hypot(*d))
+                if 0.0 < dist < 2 * R0:
+                    dpos[i] -= 2 * np.sqrt(R0 * R0 - dist * dist / 4) * d / dist
+    return {"dpos": dpos, "dtheta": np.zeros(N), "da": np.zeros((N, 0)), "db": np.zeros((N, 0))}
+
+
 def rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, contour_points=40, quadrature="binary",
           mu_theta=1.0, mu_shape=1.0):
     """Deterministic time derivatives of MODEL.md (no noise).
@@ -186,7 +206,8 @@ def rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, contour_points=40, qua
     -------
     dict
         ``"dpos"`` (N, 2) including ``v0 e(theta)``, ``"dtheta"`` (N,),
-        ``"da"`` and ``"db"`` (N, M-1).
+        ``"da"`` and ``"db"`` (N, M-1).  With zero-width mode arrays (``modes = 0``)
+        the cells are rigid discs with the exact lens force (:func:`disc_rates`).
     """
     pos = np.asarray(pos, dtype=float).reshape(-1, 2)
     N = len(pos)
@@ -195,6 +216,8 @@ def rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, contour_points=40, qua
     b = np.asarray(b, dtype=float).reshape(N, -1)
     if quadrature not in QUADRATURES:
         raise ValueError(f"quadrature must be one of {QUADRATURES}; got {quadrature!r}")
+    if a.shape[1] == 0:
+        return disc_rates(pos, theta, v0=v0, box=box, R0=R0)
     if quadrature == "arc":
         from ..kernels.api import kernel_rates  # the arc rule has no separate numpy twin here
 
