@@ -131,20 +131,27 @@ def geometry(theta, a, b, R0, cosn, sinn, cphi, sphi, R, dR, px, py, tx, ty, tan
                 for k in range(K):
                     R[ui, k] += am * cosn[m, k] + bm * sinn[m, k]
                     dR[ui, k] += n * (bm * cosn[m, k] - am * sinn[m, k])
-        rho = 0.0
         for k in range(K):
             r = R0 * R[ui, k]
             d = R0 * dR[ui, k]
-            rho = max(rho, r)
             R[ui, k] = r
             dR[ui, k] = d
             ex = c * cphi[k] - s * sphi[k]
             ey = s * cphi[k] + c * sphi[k]
             px[ui, k] = r * ex
             py[ui, k] = r * ey
-            if tangents:
+        if tangents:
+            for k in range(K):
+                r = R[ui, k]
+                d = dR[ui, k]
+                ex = c * cphi[k] - s * sphi[k]
+                ey = s * cphi[k] + c * sphi[k]
                 tx[ui, k] = d * ex - r * ey
                 ty[ui, k] = d * ey + r * ex
+        rho = 0.0  # a separate loop: max-reductions do not vectorise without nnan
+        for k in range(K):
+            if R[ui, k] > rho:
+                rho = R[ui, k]
         for k in range(K, L):
             px[ui, k] = px[ui, k - K]
             py[ui, k] = py[ui, k - K]
@@ -370,61 +377,67 @@ def window_gaps_generic(i, j, dx, dy, k0, cnt, slopes, a, b, geo, R, dR, px, py,
             tb[tid, 7, m] = (R0 * tb[tid, 7, m] * dpsi - (ox * tx + oy * ty) * inv) * h
 
 
-@njit(**NJIT)
-def pair_weights(i, j, dx, dy, theta, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad, W, tb, tid, acc):
-    """Add the overlap weights of cell j onto the contour points of cell i.
+@njit(inline="always", **NJIT)
+def pair_disc(i, dx, dy, R0, acc):
+    """Rigid discs: the exact lens-overlap force, the chord 2 sqrt(R0^2 - D^2/4) along
+    the line of centres, pushing i away from j."""
+    D = math.sqrt(dx * dx + dy * dy)
+    if D < 2.0 * R0 and D > 0.0:
+        chord = 2.0 * math.sqrt(R0 * R0 - 0.25 * D * D)
+        acc[i, 0] -= chord * dx / D
+        acc[i, 1] -= chord * dy / D
 
-    ``(dx, dy)`` is r_j - r_i for the image of j being considered.  Binary and linear
-    rules add per-point weights to ``W[i]``; the arc rule adds exact arc integrals to
-    ``acc[i]`` directly.  ``tb`` is this thread's scratch, shape (9, >= K + 3).
-    """
-    K = cphi.shape[0]
+
+@njit(inline="always", **NJIT)
+def pair_binary(i, j, dx, dy, a, b, geo, px, py, R0, W):
+    """Binary rule (paper): W[i, k] += 1 for every contour point of i inside j."""
+    K = (px.shape[1] - LANES) // 2
     rbj = geo[j, 1]
     D = math.sqrt(dx * dx + dy * dy)
-    if a.shape[1] == 0:
-        # rigid discs: the exact lens-overlap force, the chord 2 sqrt(R0^2 - D^2/4)
-        # along the line of centres, pushing i away from j
-        if D < 2.0 * R0 and D > 0.0:
-            chord = 2.0 * math.sqrt(R0 * R0 - 0.25 * D * D)
-            acc[i, 0] -= chord * dx / D
-            acc[i, 1] -= chord * dy / D
+    k0, cnt = angular_window(dx, dy, D, geo[i, 2], geo[i, 3], geo[i, 4], rbj, K)
+    if a.shape[1] <= 5:
+        binary_window(i, j, dx, dy, k0, cnt, a, b, geo, px, py, R0, W)
         return
-    if quad == QUAD_BINARY:
-        k0, cnt = angular_window(dx, dy, D, geo[i, 2], geo[i, 3], geo[i, 4], rbj, K)
-        if a.shape[1] <= 5:
-            binary_window(i, j, dx, dy, k0, cnt, a, b, geo, px, py, R0, W)
-            return
-        # generic M: per-point bounding-circle rejection, then the Fourier test
-        rb2 = rbj * rbj
-        for kk in range(k0, k0 + cnt):
-            ox = px[i, kk] - dx
-            oy = py[i, kk] - dy
-            if ox * ox + oy * oy < rb2:
-                if gap_at(ox, oy, j, a, b, geo, R0) > 0.0:
-                    W[i, kk] += 1.0
-        return
-    # linear and arc rules: rigorous window (the contour between samples may bulge
-    # beyond the sampled radii), extended by one point on either side
-    k0, cnt = angular_window(dx, dy, D, geo[i, 2], geo[i, 3], geo[i, 1], rbj, K)
-    full = cnt + 2 >= K
-    if full:
+    # generic M: per-point bounding-circle rejection, then the Fourier test
+    rb2 = rbj * rbj
+    for kk in range(k0, k0 + cnt):
+        ox = px[i, kk] - dx
+        oy = py[i, kk] - dy
+        if ox * ox + oy * oy < rb2:
+            if gap_at(ox, oy, j, a, b, geo, R0) > 0.0:
+                W[i, kk] += 1.0
+
+
+@njit(inline="always", **NJIT)
+def gap_window(i, j, dx, dy, slopes, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tb, tid):
+    """Gaps (and slopes) of cell i's contour relative to j on the rigorous window (the
+    contour between samples may bulge beyond the sampled radii), extended by one point
+    on either side.  Returns (k0, nseg): segments m = 0..nseg-1 join window points m, m+1.
+    """
+    K = cphi.shape[0]
+    D = math.sqrt(dx * dx + dy * dy)
+    k0, cnt = angular_window(dx, dy, D, geo[i, 2], geo[i, 3], geo[i, 1], geo[j, 1], K)
+    if cnt + 2 >= K:
         k0 = 0
-        cnt = K
+        nseg = K
     else:
         k0 = k0 - 1
         if k0 < 0:
             k0 += K
-        cnt += 2
-    nseg = K if full else cnt - 1
+        nseg = cnt + 1
     if a.shape[1] <= 5:
-        window_gaps6(i, j, dx, dy, k0, nseg + 1, quad == QUAD_ARC, a, b, geo, px, py, tx, ty, R0,
-                     2.0 * math.pi / K, tb, tid)
+        window_gaps6(i, j, dx, dy, k0, nseg + 1, slopes, a, b, geo, px, py, tx, ty, R0, 2.0 * math.pi / K, tb, tid)
     else:
-        window_gaps_generic(i, j, dx, dy, k0, nseg + 1, quad == QUAD_ARC, a, b, geo, R, dR, px, py, cphi, sphi,
+        window_gaps_generic(i, j, dx, dy, k0, nseg + 1, slopes, a, b, geo, R, dR, px, py, cphi, sphi,
                             R0, tb, tid, nseg + 1)
-    if quad == QUAD_ARC:
-        arc_pair(i, k0, nseg, a, b, geo, R0, cphi, sphi, tb, tid, acc)
-        return
+    return k0, nseg
+
+
+@njit(**NJIT)
+def pair_linear(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, W, tb, tid):
+    """Linear-gap rule: each point gets the inside fraction of its half segments."""
+    K = cphi.shape[0]
+    k0, nseg = gap_window(i, j, dx, dy, False, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tb, tid)
     for m in range(nseg):
         g0 = tb[tid, 6, m]
         g1 = tb[tid, 6, m + 1]
@@ -446,6 +459,32 @@ def pair_weights(i, j, dx, dy, theta, a, b, geo, R, dR, px, py, tx, ty, cphi, sp
         W[i, kk] += first
         kk1 = kk + 1 if kk + 1 < K else 0
         W[i, kk1] += second
+
+
+@njit(**NJIT)
+def pair_arc(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tb, tid, acc):
+    """Contact-arc rule: exact arc integrals into acc[i] (see :mod:`.arcs`)."""
+    k0, nseg = gap_window(i, j, dx, dy, True, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tb, tid)
+    arc_pair(i, k0, nseg, a, b, geo, R0, cphi, sphi, tb, tid, acc)
+
+
+@njit(inline="always", **NJIT)
+def pair_weights(i, j, dx, dy, theta, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad, W, tb, tid, acc):
+    """Add the overlap of cell j onto cell i with the chosen rule.
+
+    ``(dx, dy)`` is r_j - r_i for the image of j being considered.  Binary and linear
+    rules add per-point weights to ``W[i]``; the arc rule and rigid discs add integrals
+    to ``acc[i]``.  ``tb[tid]`` is this thread's scratch.  One small function per rule,
+    so that each compiles (and vectorises) on its own.
+    """
+    if a.shape[1] == 0:
+        pair_disc(i, dx, dy, R0, acc)
+    elif quad == QUAD_BINARY:
+        pair_binary(i, j, dx, dy, a, b, geo, px, py, R0, W)
+    elif quad == QUAD_ARC:
+        pair_arc(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tb, tid, acc)
+    else:
+        pair_linear(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, W, tb, tid)
 
 
 @njit(**NJIT)
