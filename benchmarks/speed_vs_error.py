@@ -24,6 +24,8 @@ Three studies, all at rho = 0.95, M = 6:
    the state), quadrature arc and binary at K = 40, from equilibrated states of three
    scenes (fluid, soft-fluid, hard eta = 0.001 / v0 = 0.2), over a fixed time T; error =
    rms over cells of the unwrapped centroid difference to the run at the reference dt.
+   Also arc K = 160, whose rates are smooth enough to show the integrator's own order;
+   at K = 40 contacts appear and vanish discontinuously and set an error floor.
    Largest stable dt: a doubling ladder from 5e-3 (with D_r = 0.01); a dt passes when
    it raises no ``SimulationError`` and keeps ⟨q⟩ (second half of the run) within 5 %
    of the run at dt = 2.5e-3; the answer is the last pass before the first failure.
@@ -181,10 +183,10 @@ def part2_trajectories(cfg, sims, log):
     out = []
     T = cfg["traj_T"]
     for scene, sim in sims.items():
-        for quad in cfg["traj_quads"]:
+        for quad, K in cfg["traj_settings"]:
             finals = {}
             for dt in list(cfg["traj_dts"]) + [cfg["traj_ref_dt"]]:
-                s = fork(sim, Dr=0.0, dt=dt, quadrature=quad, contour_points=40)
+                s = fork(sim, Dr=0.0, dt=dt, quadrature=quad, contour_points=K)
                 try:
                     s.advance(int(round(T / dt)))
                     finals[dt] = (s.state.unwrapped(), s.state.theta.copy(),
@@ -194,7 +196,7 @@ def part2_trajectories(cfg, sims, log):
             r = finals[cfg["traj_ref_dt"]]
             for dt in cfg["traj_dts"]:
                 f = finals[dt]
-                row = {"scene": scene, "quadrature": quad, "dt": dt}
+                row = {"scene": scene, "quadrature": quad, "K": K, "dt": dt}
                 if f is None or r is None:
                     row.update(pos=np.nan, theta=np.nan, shape=np.nan, projections=-1)
                 else:
@@ -324,8 +326,8 @@ def tables(res, cfg):
             for r in d["rows"]:
                 c = cost.get((r["quadrature"], r["K"]))
                 cs = f"{c['us_per_cell_step']:>13.3f} {c['cost_vs_binary40']:>10.2f}" if c else f"{'-':>13} {'-':>10}"
-                w(f"{r['quadrature']:>7} {r['K']:>4} {r['F_rms']:>8.4f} {r['F_median']:>8.4f} {r['F_max']:>8.4f} "
-                  f"{r['imbalance']:>10.3g} {r['torque']:>8.4f} {r['shape']:>8.4f} {cs}")
+                w(f"{r['quadrature']:>7} {r['K']:>4} {r['F_rms']:>8.3g} {r['F_median']:>8.3g} {r['F_max']:>8.3g} "
+                  f"{r['imbalance']:>10.3g} {r['torque']:>8.3g} {r['shape']:>8.3g} {cs}")
     if "cost" in res:
         w("")
         w(f"## 1b. Cost: Simulation at N = {cfg['cost_N']} (eta = 0.03, v0 = 0.06, after {cfg['cost_warm']} "
@@ -337,17 +339,17 @@ def tables(res, cfg):
               f"{r['cost_vs_binary40']:>10.2f}")
     if "traj" in res:
         w("")
-        w(f"## 2. Trajectory error at T = {cfg['traj_T']} vs dt (D_r = 0, K = 40, N = {cfg['p1_N']}); "
+        w(f"## 2. Trajectory error at T = {cfg['traj_T']} vs dt (D_r = 0, N = {cfg['p1_N']}); "
           f"reference dt = {cfg['traj_ref_dt']:g}")
         w("# pos: rms over cells of |r(dt) - r(ref)| in R0; theta: rms rad; shape: rms over modes; "
           "order = log2(err(2dt)/err(dt))")
-        w(f"{'scene':>10} {'quad':>7} {'dt':>8} {'pos':>10} {'order':>6} {'theta':>10} {'shape':>10} {'proj':>6}")
+        w(f"{'scene':>10} {'quad':>7} {'K':>4} {'dt':>8} {'pos':>10} {'order':>6} {'theta':>10} {'shape':>10} {'proj':>6}")
         prev = {}
         for r in res["traj"]:
-            k = (r["scene"], r["quadrature"])
+            k = (r["scene"], r["quadrature"], r["K"])
             order = math.log2(prev[k] / r["pos"]) if k in prev and r["pos"] > 0 and np.isfinite(prev[k]) else float("nan")
             prev[k] = r["pos"]
-            w(f"{r['scene']:>10} {r['quadrature']:>7} {r['dt']:>8.5f} {r['pos']:>10.3e} {order:>6.2f} "
+            w(f"{r['scene']:>10} {r['quadrature']:>7} {r['K']:>4} {r['dt']:>8.5f} {r['pos']:>10.3e} {order:>6.2f} "
               f"{r['theta']:>10.3e} {r['shape']:>10.3e} {r['projections']:>6}")
     if "stable" in res:
         w("")
@@ -365,20 +367,23 @@ def tables(res, cfg):
         w(f"## 3. Observables at eta = {eta}, v0 = {v0}, D_r = 0.01, N = {cfg['obs_N']}, {cfg['obs_seeds']} seeds; "
           f"run T = {cfg['obs_T']} from a shared equilibrated state (t = {cfg['obs_eq']}), frames every "
           f"{cfg['obs_sample']} after t = {cfg['obs_skip']}; MSD at lag {cfg['obs_lag']}")
-        w("# value = mean ± sem over seeds; Δ = paired mean difference to the first (finest) row ± sem; "
-          "* marks |Δ| > 2 sem")
-        w(f"{'setting':>26} {'<q>':>16} {'Δ<q>':>18} {'rho_d':>14} {'Δrho_d':>16} {'MSD':>14} {'ΔMSD':>16} "
+        w("# value = mean ± sem over seeds (the replicate noise); Δ = paired mean difference to the first "
+          "(finest) row ± its sem; * marks |Δ| > 2 paired sem (a systematic shift), ! marks |Δ| > 2 sem of the "
+          "finest row's value (beyond replicate noise)")
+        w(f"{'setting':>26} {'<q>':>16} {'Δ<q>':>19} {'rho_d':>16} {'Δrho_d':>19} {'MSD':>16} {'ΔMSD':>19} "
           f"{'us/cell-step':>12} {'us/(cell·time)':>14}")
 
         def f(v, e, d=4):
             return f"{v:.{d}f}±{e:.{d}f}"
 
+        ref = res["obs"]["summary"][0]
         for r in res["obs"]["summary"]:
             cells = []
             for obs, d in (("q", 4), ("rho_d", 3), ("msd", 3)):
                 star = "*" if abs(r[obs + "_delta"]) > 2 * r[obs + "_delta_sem"] else " "
+                star += "!" if abs(r[obs + "_delta"]) > 2 * ref[obs + "_sem"] else " "
                 cells.append(f"{f(r[obs], r[obs + '_sem'], d):>16}")
-                cells.append(f"{f(r[obs + '_delta'], r[obs + '_delta_sem'], d) + star:>18}")
+                cells.append(f"{f(r[obs + '_delta'], r[obs + '_delta_sem'], d) + star:>19}")
             w(f"{r['key']:>26} " + " ".join(cells) + f" {r['us_per_cell_step']:>12.2f} {r['us_per_unit_time']:>14.0f}")
     return "\n".join(L) + "\n"
 
@@ -413,18 +418,25 @@ def figure(res, cfg, outdir):
     ax.legend(fontsize=6, ncol=1)
     ax = axes[1]
     for scene, ls in zip(SCENES, ("-", "--", ":")):
-        for quad in cfg["traj_quads"]:
+        for quad, K in cfg["traj_settings"]:
             rows = [r for r in res.get("traj", []) if r["scene"] == scene and r["quadrature"] == quad
-                    and np.isfinite(r["pos"])]
+                    and r["K"] == K and np.isfinite(r["pos"])]
             if rows:
-                ax.loglog([r["dt"] for r in rows], [r["pos"] for r in rows], ls, marker="o", ms=3,
-                          color=colors[quad], label=f"{quad}, {scene}")
+                ax.loglog([r["dt"] for r in rows], [r["pos"] for r in rows], ls, marker="os"[K == 40], ms=3,
+                          color="C2" if K != 40 else colors[quad], label=f"{quad} K={K}, {scene}")
     dts = np.array(cfg["traj_dts"])
     ax.loglog(dts, 1e-2 * dts / dts[0], color="k", lw=0.6, label="∝ dt")
+    ax.loglog(dts, 6e-3 * (dts / dts[0]) ** 2, color="k", lw=0.6, ls="--", label="∝ dt²")
     ax.set_xlabel("dt")
     ax.set_ylabel(f"rms centroid error at T = {cfg['traj_T']} (R0)")
-    ax.set_title("(b) trajectory error vs dt (D_r = 0, K = 40)")
+    ax.set_title("(b) trajectory error vs dt (D_r = 0)")
     ax.legend(fontsize=6)
+    from matplotlib.ticker import FixedLocator, NullFormatter, NullLocator
+    for a, ticks in ((axes[0], [1, 1.5, 2, 3, 4, 6, 8]), (axes[1], list(cfg["traj_dts"]))):
+        a.xaxis.set_minor_formatter(NullFormatter())
+        a.xaxis.set_minor_locator(NullLocator())
+        a.xaxis.set_major_locator(FixedLocator(ticks))
+        a.set_xticklabels([f"{t:g}" for t in ticks])
     fig.tight_layout()
     for ext in ("png", "pdf"):
         fig.savefig(outdir / f"work_precision.{ext}", dpi=150)
@@ -435,7 +447,7 @@ def config(quick):
     if quick:
         return {"quick": True, "p1_N": 16, "p1_seeds": 1, "t_eq": {"fluid": 5.0, "soft-fluid": 5.0, "hard": 5.0},
                 "Ks": (24, 40), "cost_N": 64, "cost_warm": 100, "cost_steps": 20,
-                "traj_T": 0.2, "traj_dts": (0.04, 0.02, 0.01), "traj_ref_dt": 0.005, "traj_quads": ("arc",),
+                "traj_T": 0.2, "traj_dts": (0.04, 0.02, 0.01), "traj_ref_dt": 0.005, "traj_settings": (("arc", 40),),
                 "stable_T": 0.64, "stable_sample": 0.16, "stable_ref_dt": 0.005, "stable_dts": (0.02, 0.04),
                 "stable_quads": ("binary",),
                 "obs_N": 16, "obs_seeds": 2, "obs_eq": 2.0, "obs_T": 1.0, "obs_skip": 0.4, "obs_sample": 0.2,
@@ -445,14 +457,14 @@ def config(quick):
             "t_eq": {"fluid": 15.0, "soft-fluid": 50.0, "hard": 15.0},
             "Ks": (16, 24, 32, 40, 64, 96, 160), "cost_N": 1024, "cost_warm": 2000, "cost_steps": 60,
             "traj_T": 2.0, "traj_dts": (0.04, 0.02, 0.01, 0.005, 0.0025, 0.00125), "traj_ref_dt": 0.000625,
-            "traj_quads": ("arc", "binary"),
+            "traj_settings": (("arc", 160), ("arc", 40), ("binary", 40)),
             "stable_T": 12.8, "stable_sample": 0.64, "stable_ref_dt": 0.0025,
             "stable_dts": (0.005, 0.01, 0.02, 0.04, 0.08, 0.16, 0.32), "stable_quads": ("binary", "arc"),
-            "obs_N": 144, "obs_seeds": 3, "obs_eq": 40.0, "obs_T": 25.0, "obs_skip": 5.0, "obs_sample": 0.2,
+            "obs_N": 144, "obs_seeds": 4, "obs_eq": 40.0, "obs_T": 40.0, "obs_skip": 5.0, "obs_sample": 0.2,
             "obs_lag": 10.0, "obs_scene": (0.03, 0.06),
-            "obs_settings": (("arc", 80, 0.0025), ("arc", 40, 0.005), ("arc", 24, 0.005), ("arc", 40, 0.02),
-                             ("linear", 40, 0.005), ("binary", 80, 0.005), ("binary", 40, 0.005),
-                             ("binary", 40, 0.02))}
+            "obs_settings": (("arc", 80, 0.0025), ("arc", 80, 0.005), ("arc", 40, 0.005), ("arc", 24, 0.005),
+                             ("arc", 40, 0.01), ("arc", 40, 0.02), ("linear", 40, 0.005), ("binary", 80, 0.005),
+                             ("binary", 40, 0.0025), ("binary", 40, 0.005), ("binary", 40, 0.02))}
 
 
 def main(argv=None):
@@ -460,11 +472,21 @@ def main(argv=None):
     ap.add_argument("--quick", action="store_true", help="tiny version of every part (< 1 min)")
     ap.add_argument("--outdir", type=pathlib.Path, default=None)
     ap.add_argument("--parts", type=int, nargs="+", default=[1, 2, 3])
+    ap.add_argument("--replot", action="store_true",
+                    help="rewrite the tables and figure from OUTDIR/speed_vs_error.json without computing")
     args = ap.parse_args(argv)
     cfg = config(args.quick)
     outdir = args.outdir or (pathlib.Path(tempfile.mkdtemp(prefix="fcsweep_sve_")) if args.quick
                              else pathlib.Path(__file__).resolve().parent / "results")
     outdir.mkdir(parents=True, exist_ok=True)
+    if args.replot:
+        res = json.loads((outdir / "speed_vs_error.json").read_text())
+        cfg = res.pop("config")
+        text = tables(res, cfg) + f"\n# total runtime {res['runtime_s']:.0f} s\n"
+        (outdir / "speed_vs_error.txt").write_text(text)
+        figure(res, cfg, outdir)
+        print(text)
+        return
     numba.set_num_threads(1)  # serial timings: CPU time of this process = kernel time
     t_start = time.perf_counter()
 
