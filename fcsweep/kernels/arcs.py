@@ -221,15 +221,19 @@ def arc_pair(i, k0, nseg, a, b, geo, R0, cphi, sphi, tb, tid, acc):
             else:
                 _integrate(i, k, t, 1.0, h, a, b, geo, R0, cphi, sphi, acc)
             continue
-        # same sign at both ends: the cubic may still cross zero twice in between.  The
-        # Hermite slope basis functions are bounded by 4/27, so |p - chord| <= 0.149 (|m0|+|m1|):
-        # most segments are excluded without solving for the stationary points.
-        bulge = 0.149 * (abs(m0) + abs(m1))
+        # same sign at both ends: the cubic may still cross zero twice in between.  Write
+        # p(t) = (1-t) g0 + t g1 + t(1-t) [(1-t) A - t B] with A = m0 - (g1-g0),
+        # B = m1 - (g1-g0); the bracket lies between A and -B and t(1-t) <= 1/4, so
+        # p <= max(g0, g1) + max(A, -B, 0)/4 and p >= min(g0, g1) - max(-A, B, 0)/4.
+        # Most segments are settled by these bounds without solving for stationary points.
+        dg = g1 - g0
+        A = m0 - dg
+        B = m1 - dg
         if in0:
-            if min(g0, g1) > bulge:
+            if min(g0, g1) - 0.25 * max(-A, B, 0.0) > 0.0:
                 _integrate(i, k, 0.0, 1.0, h, a, b, geo, R0, cphi, sphi, acc)
                 continue
-        elif max(g0, g1) + bulge <= 0.0:
+        elif max(g0, g1) + 0.25 * max(A, -B, 0.0) <= 0.0:
             continue
         n, t1, t2 = _critical_points(g0, g1, m0, m1)
         tc = -1.0
