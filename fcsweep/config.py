@@ -74,7 +74,7 @@ MODEL_DEFAULTS: dict[str, Any] = {
     "dt": 5e-3,
     "contour_points": 40,
     "modes": 6,
-    "quadrature": "binary",
+    "quadrature": "arc",
     "R0": 1.0,
     "mu_theta": 1.0,
     "mu_shape": 1.0,

@@ -40,7 +40,7 @@ def test_grid_expansion_order_and_defaults():
     p = runs[0].params
     # defaults of MODEL.md filled in
     assert (p["Dr"], p["density"], p["dt"], p["modes"], p["contour_points"], p["quadrature"]) == (
-        0.01, 0.95, 5e-3, 6, 40, "binary")
+        0.01, 0.95, 5e-3, 6, 40, "arc")
     assert cfg.swept == ["eta", "v0"] and runs[0].swept == ("eta", "v0")
     assert cfg.run.n_frames == 11 and cfg.run.transient == 0.2
     assert cfg.output == Path("out")

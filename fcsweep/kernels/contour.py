@@ -28,7 +28,7 @@ from .options import NJIT
 
 
 #: Points per vector block of the binary rule (a multiple of the SIMD width).
-LANES = 8
+LANES = 4
 
 QUAD_BINARY = 0
 QUAD_LINEAR = 1
