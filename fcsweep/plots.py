@@ -89,7 +89,7 @@ def phase_diagram(ds, *, select=None):
         m = ax.scatter(E.ravel(), V.ravel(), c=Dp.ravel(), norm=norm, cmap="viridis", s=160)
     fig.colorbar(m, ax=ax, label=r"$D_{\rm eff}$")
     E, V = np.meshgrid(eta, v0)
-    for code, (name, marker, color) in PHASE_STYLE.items():
+    for code, (name, marker, _color) in PHASE_STYLE.items():
         sel = ph == code
         if np.any(sel):
             ax.scatter(E[sel], V[sel], marker=marker, facecolors="w", edgecolors="k",

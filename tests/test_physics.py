@@ -38,7 +38,8 @@ def test_two_circles_force_converges_to_chord(d):
     assert r["dpos"][1, 0] == pytest.approx(chord, rel=2e-3)
 
 
-@pytest.mark.parametrize("quadrature,Ks,last_tol", [("binary", (40, 640, 10240), 0.02), ("linear", (40, 160, 640), 0.01),
+@pytest.mark.parametrize("quadrature,Ks,last_tol", [("binary", (40, 640, 10240), 0.02),
+                                                    ("linear", (40, 160, 640), 0.01),
                                                     ("arc", (24, 40, 80), 1e-3)])
 def test_action_reaction_vanishes_with_K(quadrature, Ks, last_tol):
     """Property 2: sum_i (dr_i/dt - v0 e_i) -> 0 as K grows (relative to the largest force)."""

@@ -102,7 +102,7 @@ def test_sigkill_at_chosen_points_then_resume_is_bitwise(sweep):
     assert "resumed from step 100" in outcomes[1].message  # append of ckpt 2 was lost, ckpt 1 holds
     assert "resumed from step 100" in outcomes[2].message  # temp ckpt 2 never renamed
     assert "resumed from step 300" in outcomes[3].message
-    for i, spec in enumerate(runs):
+    for spec in runs:
         assert_same_trajectory(cfg.run_dir(spec.run_id) / schema.TRAJECTORY,
                                ref.run_dir(spec.run_id) / schema.TRAJECTORY)
         leftovers = {p.name for p in cfg.run_dir(spec.run_id).iterdir()}

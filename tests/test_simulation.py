@@ -1,6 +1,5 @@
 """Simulation: reproducibility, continuation, thread independence, hard cases, errors."""
 
-import math
 
 import numba
 import numpy as np
@@ -84,7 +83,7 @@ def test_images_track_unwrapped_motion():
 
 
 @pytest.mark.parametrize("kw", [
-    dict(eta=0.001, v0=0.06),              # very low tension
+    dict(eta=0.001, v0=0.06),  # very low tension
     dict(eta=0.03, v0=0.2),                # high propulsion
     dict(eta=0.0, v0=0.1),                 # no tension at all
     dict(eta=0.03, v0=0.06, dt=0.05),      # ten times the paper's step

@@ -15,6 +15,7 @@ import math
 
 from numba import njit
 
+from .fourier import modes6, multiples6
 from .options import NJIT
 
 _G = 0.5 / math.sqrt(3.0)  # Gauss-Legendre nodes at 1/2 -+ _G on [0, 1]
@@ -102,16 +103,7 @@ def _gauss_point6(cp, sp, wq, a0, c, s, R0, am, bm, acc, i):
     """One Gauss point of :func:`_integrate` for M <= 6 (straight-line code)."""
     a2, a3, a4, a5, a6 = am
     b2, b3, b4, b5, b6 = bm
-    c2 = cp * cp - sp * sp
-    s2 = 2.0 * cp * sp
-    c3 = c2 * cp - s2 * sp
-    s3 = s2 * cp + c2 * sp
-    c4 = c2 * c2 - s2 * s2
-    s4 = 2.0 * c2 * s2
-    c5 = c4 * cp - s4 * sp
-    s5 = s4 * cp + c4 * sp
-    c6 = c3 * c3 - s3 * s3
-    s6 = 2.0 * c3 * s3
+    c2, c3, c4, c5, c6, s2, s3, s4, s5, s6 = multiples6(cp, sp)
     r = R0 * (a0 + a2 * c2 + b2 * s2 + a3 * c3 + b3 * s3 + a4 * c4 + b4 * s4 + a5 * c5 + b5 * s5 + a6 * c6 + b6 * s6)
     dr = R0 * (2.0 * (b2 * c2 - a2 * s2) + 3.0 * (b3 * c3 - a3 * s3) + 4.0 * (b4 * c4 - a4 * s4)
                + 5.0 * (b5 * c5 - a5 * s5) + 6.0 * (b6 * c6 - a6 * s6))
@@ -162,10 +154,9 @@ def _integrate(i, k, t1, t2, h, a, b, geo, R0, cphi, sphi, acc):
         cp = cphi[k] * cd - sphi[k] * sd
         sp = sphi[k] * cd + cphi[k] * sd
         if M1 <= 5:
-            am = (a[i, 0] if M1 > 0 else 0.0, a[i, 1] if M1 > 1 else 0.0, a[i, 2] if M1 > 2 else 0.0,
-                  a[i, 3] if M1 > 3 else 0.0, a[i, 4] if M1 > 4 else 0.0)
-            bm = (b[i, 0] if M1 > 0 else 0.0, b[i, 1] if M1 > 1 else 0.0, b[i, 2] if M1 > 2 else 0.0,
-                  b[i, 3] if M1 > 3 else 0.0, b[i, 4] if M1 > 4 else 0.0)
+            m6 = modes6(a, b, i)
+            am = (m6[0], m6[1], m6[2], m6[3], m6[4])
+            bm = (m6[5], m6[6], m6[7], m6[8], m6[9])
             _gauss_point6(cp, sp, w, geo[i, 0], c, s, R0, am, bm, acc, i)
             continue
         cn = cp

@@ -24,6 +24,7 @@ import numpy as np
 from numba import get_thread_id, njit, prange
 
 from .arcs import arc_pair
+from .fourier import fourier6, modes6
 from .options import NJIT
 
 
@@ -43,44 +44,6 @@ def mode_tables(K, M1):
     cosn = np.ascontiguousarray(np.cos(np.multiply.outer(n, phi)))
     sinn = np.ascontiguousarray(np.sin(np.multiply.outer(n, phi)))
     return cosn.reshape(M1, K), sinn.reshape(M1, K), np.cos(phi), np.sin(phi)
-
-
-@njit(inline="always", **NJIT)
-def modes6(a, b, j):
-    """The modes n = 2..6 of cell j as ten scalars, zero beyond the array width."""
-    M1 = a.shape[1]
-    a2 = a[j, 0] if M1 > 0 else 0.0
-    a3 = a[j, 1] if M1 > 1 else 0.0
-    a4 = a[j, 2] if M1 > 2 else 0.0
-    a5 = a[j, 3] if M1 > 3 else 0.0
-    a6 = a[j, 4] if M1 > 4 else 0.0
-    b2 = b[j, 0] if M1 > 0 else 0.0
-    b3 = b[j, 1] if M1 > 1 else 0.0
-    b4 = b[j, 2] if M1 > 2 else 0.0
-    b5 = b[j, 3] if M1 > 3 else 0.0
-    b6 = b[j, 4] if M1 > 4 else 0.0
-    return a2, a3, a4, a5, a6, b2, b3, b4, b5, b6
-
-
-@njit(inline="always", **NJIT)
-def fourier6(c, s, a2, a3, a4, a5, a6, b2, b3, b4, b5, b6):
-    """sum_n (a_n cos n psi + b_n sin n psi) and its psi-derivative for n = 2..6,
-    from c = cos psi and s = sin psi by exact multiple-angle products (no trig calls).
-    Straight-line code, so that loops calling it vectorise across points."""
-    c2 = c * c - s * s
-    s2 = 2.0 * c * s
-    c3 = c2 * c - s2 * s
-    s3 = s2 * c + c2 * s
-    c4 = c2 * c2 - s2 * s2
-    s4 = 2.0 * c2 * s2
-    c5 = c4 * c - s4 * s
-    s5 = s4 * c + c4 * s
-    c6 = c3 * c3 - s3 * s3
-    s6 = 2.0 * c3 * s3
-    r = a2 * c2 + b2 * s2 + a3 * c3 + b3 * s3 + a4 * c4 + b4 * s4 + a5 * c5 + b5 * s5 + a6 * c6 + b6 * s6
-    dr = (2.0 * (b2 * c2 - a2 * s2) + 3.0 * (b3 * c3 - a3 * s3) + 4.0 * (b4 * c4 - a4 * s4)
-          + 5.0 * (b5 * c5 - a5 * s5) + 6.0 * (b6 * c6 - a6 * s6))
-    return r, dr
 
 
 @njit(parallel=True, **NJIT)
@@ -623,6 +586,7 @@ def all_rates(pos, theta, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shap
                         cut = rbi + geo[j, 1]
                         if dx * dx + dy * dy >= cut * cut:
                             continue
-                        pair_weights(i, j, dx, dy, theta, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad, W, tbuf, tid, acc)
+                        pair_weights(i, j, dx, dy, theta, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad,
+                                     W, tbuf, tid, acc)
         cell_rates(i, theta, a, b, geo, R, dR, cosn, sinn, cphi, sphi, W, acc, R0, eta, v0, mu_theta, mu_shape,
                    dpos, dth, da, db)

@@ -68,8 +68,10 @@ def _segment_weights_linear(g):
     with np.errstate(divide="ignore", invalid="ignore"):
         t = np.where(in0 != in1, g0 / (g0 - g1), 0.0)  # root position in [0, 1]
     # inside length (in units of the segment) in the first half [0, 1/2] and second half
-    first = np.where(in0 & in1, 0.5, np.where(in0 & ~in1, np.minimum(t, 0.5), np.where(~in0 & in1, np.maximum(0.0, 0.5 - t), 0.0)))
-    second = np.where(in0 & in1, 0.5, np.where(in0 & ~in1, np.maximum(0.0, t - 0.5), np.where(~in0 & in1, np.minimum(0.5, 1.0 - t), 0.0)))
+    out_in = ~in0 & in1
+    in_out = in0 & ~in1
+    first = np.select([in0 & in1, in_out, out_in], [0.5, np.minimum(t, 0.5), np.maximum(0.0, 0.5 - t)], 0.0)
+    second = np.select([in0 & in1, in_out, out_in], [0.5, np.maximum(0.0, t - 0.5), np.minimum(0.5, 1.0 - t)], 0.0)
     return first + np.roll(second, 1, axis=-1)
 
 

@@ -374,7 +374,8 @@ def _compute(cfg, spec, run_dir: Path, lock: RunLock, prev: dict, progress, forc
         buffer = []
 
     info = {"notes": notes, "attempts": attempts, "wall_before": wall_before, "fingerprint": fp_any}
-    _write(run_dir, spec, schema.RUNNING, "; ".join(notes), int(sim.state.step), steps, prev, t0, int(sim.state.projections), info)
+    _write(run_dir, spec, schema.RUNNING, "; ".join(notes), int(sim.state.step), steps, prev, t0,
+           int(sim.state.projections), info)
     last_status = time.time()
     buf_bytes = sum(_frame_bytes(f) for f in buffer)
     checked_failure = False
@@ -412,7 +413,8 @@ def _compute(cfg, spec, run_dir: Path, lock: RunLock, prev: dict, progress, forc
             progress(spec, step, steps)
         if time.time() - last_status > STATUS_INTERVAL:
             lock.verify()
-            _write(run_dir, spec, schema.RUNNING, "; ".join(notes), step, steps, prev, t0, int(sim.state.projections), info)
+            _write(run_dir, spec, schema.RUNNING, "; ".join(notes), step, steps, prev, t0,
+                   int(sim.state.projections), info)
             last_status = time.time()
     if buffer:  # only when resuming at the very end with frames pending (not expected)
         commit()
