@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import __version__
-from .kernels.step import NONFINITE, OK, TOO_FAST, run_chunk
+from .kernels.step import NONFINITE, OK, run_chunk
 from .kernels.api import param_vector
 from .kernels.workspace import Workspace, quadrature_code
 from .model.lattice import hexagonal_lattice

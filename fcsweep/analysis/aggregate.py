@@ -26,8 +26,7 @@ import xarray as xr
 
 from fcsweep import __version__
 from fcsweep.analysis.phase import PERCOLATION_FLAGS, PHASE_FLAGS, flag_attrs
-from fcsweep.analysis.pipeline import (ANALYSIS_FILE, CURVES, DATASET_FILE, STATUS_FILE,
-                                       _read_status, read_analysis)
+from fcsweep.analysis.pipeline import (ANALYSIS_FILE, CURVES, DATASET_FILE, _read_status, read_analysis)
 
 CORE_DIMS = ("eta", "v0", "N")
 STATUS_FLAGS = {0: "analysed", 1: "not_analysed", 2: "failed", 3: "running", 4: "pending",
