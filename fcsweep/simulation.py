@@ -17,6 +17,7 @@ import os
 import tempfile
 from dataclasses import dataclass, field
 
+import numba
 import numpy as np
 
 from . import __version__
@@ -28,6 +29,9 @@ from .model.shape import ADMISSIBLE_BOUND, PROJECTION_MARGIN
 
 #: Steps whose noise is drawn at once; any value gives the same trajectory.
 CHUNK = 256
+#: Cells per thread below which extra threads cost more in synchronisation (three
+#: parallel regions per step) than they save; results do not depend on the threads.
+CELLS_PER_THREAD = 512
 
 
 class SimulationError(RuntimeError):
@@ -176,17 +180,22 @@ class Simulation:
             raise ValueError(f"steps must be >= 0; got {steps}")
         s = self.state
         ws = self._ws
-        done = 0
-        while done < steps:
-            n = min(CHUNK, steps - done)
-            noise = self.rng.standard_normal((n, self.params.N))
-            k, status, nproj = run_chunk(s.pos, s.image, s.theta, s.a, s.b, noise, self._prm, self._periodic,
-                                         self._quad, ws.tables, ws.scratch, ws.cl, ws.out, ws.flags)
-            s.step += int(k)
-            s.projections += int(nproj)
-            done += int(k)
-            if status != OK:
-                raise SimulationError(self._failure_message(status))
+        threads = numba.get_num_threads()
+        numba.set_num_threads(max(1, min(threads, self.params.N // CELLS_PER_THREAD)))
+        try:
+            done = 0
+            while done < steps:
+                n = min(CHUNK, steps - done)
+                noise = self.rng.standard_normal((n, self.params.N))
+                k, status, nproj = run_chunk(s.pos, s.image, s.theta, s.a, s.b, noise, self._prm, self._periodic,
+                                             self._quad, ws.tables, ws.scratch, ws.cl, ws.out, ws.flags)
+                s.step += int(k)
+                s.projections += int(nproj)
+                done += int(k)
+                if status != OK:
+                    raise SimulationError(self._failure_message(status))
+        finally:
+            numba.set_num_threads(threads)
 
     def _failure_message(self, status) -> str:
         p = self.params

@@ -59,9 +59,12 @@ def test_chunking_and_checkpoint_continue_bit_for_bit(tmp_path):
 
 
 @pytest.mark.parametrize("quadrature", ["binary", "arc"])
-def test_results_independent_of_thread_count(quadrature):
+def test_results_independent_of_thread_count(quadrature, monkeypatch):
     if numba.config.NUMBA_NUM_THREADS < 2:
         pytest.skip("needs 2 threads")
+    import fcsweep.simulation
+
+    monkeypatch.setattr(fcsweep.simulation, "CELLS_PER_THREAD", 16)  # really use 2 threads at N = 144
     out = []
     for threads in (1, 2):
         numba.set_num_threads(threads)
