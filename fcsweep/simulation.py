@@ -21,7 +21,7 @@ import numba
 import numpy as np
 
 from . import __version__
-from .kernels.step import NONFINITE, OK, run_chunk
+from .kernels.step import LIST_FULL, NONFINITE, OK, run_chunk
 from .kernels.api import param_vector
 from .kernels.workspace import Workspace, quadrature_code
 from .model.lattice import hexagonal_lattice
@@ -187,13 +187,19 @@ class Simulation:
             while done < steps:
                 n = min(CHUNK, steps - done)
                 noise = self.rng.standard_normal((n, self.params.N))
-                k, status, nproj = run_chunk(s.pos, s.image, s.theta, s.a, s.b, noise, self._prm, self._periodic,
-                                             self._quad, ws.tables, ws.scratch, ws.cl, ws.out, ws.flags)
-                s.step += int(k)
-                s.projections += int(nproj)
-                done += int(k)
-                if status != OK:
-                    raise SimulationError(self._failure_message(status))
+                used = 0
+                while used < n:
+                    k, status, nproj = run_chunk(s.pos, s.image, s.theta, s.a, s.b, noise[used:], self._prm,
+                                                 self._periodic, self._quad, ws.tables, ws.scratch, ws.cl, ws.nl,
+                                                 ws.out, ws.flags)
+                    s.step += int(k)
+                    s.projections += int(nproj)
+                    used += int(k)
+                    if status == LIST_FULL:
+                        ws.grow_neighbour_list()
+                    elif status != OK:
+                        raise SimulationError(self._failure_message(status))
+                done += n
         finally:
             numba.set_num_threads(threads)
 

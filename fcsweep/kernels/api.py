@@ -4,17 +4,19 @@ from __future__ import annotations
 
 import numpy as np
 
-from .step import P_DMAX, P_DT, P_ETA, P_LX, P_LY, P_MUS, P_MUT, P_NOISE, P_R0, P_SMAX, P_V0, compute_rates
-from .workspace import Workspace, quadrature_code
+from .step import (P_DMAX, P_DT, P_ETA, P_LX, P_LY, P_MUS, P_MUT, P_NOISE, P_R0, P_SKIN, P_SMAX, P_V0,
+                   compute_rates)
+from .workspace import SKIN, Workspace, quadrature_code
 
 
 def param_vector(*, box, R0, eta, v0, mu_theta, mu_shape, dt=0.0, noise_amp=0.0, smax=np.inf, dmax=np.inf):
     """Float parameter vector in the layout :func:`fcsweep.kernels.step.run_chunk` reads."""
-    prm = np.zeros(11)
+    prm = np.zeros(12)
     Lx, Ly = (1.0, 1.0) if box is None else (float(box[0]), float(box[1]))
     prm[P_LX], prm[P_LY], prm[P_R0] = Lx, Ly, R0
     prm[P_ETA], prm[P_V0], prm[P_MUT], prm[P_MUS] = eta, v0, mu_theta, mu_shape
     prm[P_DT], prm[P_NOISE], prm[P_SMAX], prm[P_DMAX] = dt, noise_amp, smax, dmax
+    prm[P_SKIN] = SKIN * R0
     return prm
 
 
@@ -39,7 +41,10 @@ def kernel_rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, contour_points=
     b = np.ascontiguousarray(b, dtype=float).reshape(N, -1)
     ws = workspace or Workspace(N, contour_points, a.shape[1], box, R0)
     prm = param_vector(box=box, R0=R0, eta=eta, v0=v0, mu_theta=mu_theta, mu_shape=mu_shape)
-    compute_rates(wrap_positions(pos, box), theta, a, b, prm, box is not None, quadrature_code(quadrature),
-                  ws.tables, ws.scratch, ws.cl, ws.out)
+    pos = wrap_positions(pos, box)
+    ws.nl[4][0] = 0  # positions are new: rebuild the neighbour list
+    while not compute_rates(pos, theta, a, b, prm, box is not None, quadrature_code(quadrature),
+                            ws.tables, ws.scratch, ws.cl, ws.nl, ws.out):
+        ws.grow_neighbour_list()
     dpos, dth, da, db = ws.out
     return {"dpos": dpos.copy(), "dtheta": dth.copy(), "da": da.copy(), "db": db.copy()}

@@ -522,12 +522,11 @@ def cell_rates(i, theta, a, b, geo, R, dR, cosn, sinn, cphi, sphi, W, acc, R0, e
 @njit(parallel=True, **NJIT)
 def all_rates(pos, theta, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shape, quad,
               cosn, sinn, cphi, sphi, R, dR, px, py, tx, ty, geo, W, tbuf, acc,
-              nx, ny, cell_of, cell_start, cell_members, dpos, dth, da, db):
+              use_list, nbr, count, dpos, dth, da, db):
     """Deterministic rates of every cell (geometry must be current).
 
-    With ``nx, ny >= 3`` the cell list is used (grid cells at least as wide as the
-    largest interaction range, so the periodic shift of each neighbouring grid cell is
-    the minimum image); otherwise every
+    With ``use_list`` the Verlet list ``nbr[i, :count[i]]`` (see :mod:`.verlet`) gives
+    the candidates in ascending j; otherwise (boxes too small for a cell list) every
     cell and every one of the 9 periodic images (or, for open boundaries, the direct
     pair only) is visited.  Each iteration writes only to row i, so the result does not
     depend on the number of threads.
@@ -542,38 +541,25 @@ def all_rates(pos, theta, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shap
         rbi = geo[i, 1]
         xi = pos[i, 0]
         yi = pos[i, 1]
-        if nx >= 3 and ny >= 3:
-            c = cell_of[i]
-            cx = c % nx
-            cy = c // nx
-            for ox in range(-1, 2):
-                ccx = cx + ox
-                sxL = 0.0  # periodic shift of this column of grid cells
-                if ccx < 0:
-                    ccx += nx
-                    sxL = -Lx
-                elif ccx >= nx:
-                    ccx -= nx
-                    sxL = Lx
-                for oy in range(-1, 2):
-                    ccy = cy + oy
-                    syL = 0.0
-                    if ccy < 0:
-                        ccy += ny
-                        syL = -Ly
-                    elif ccy >= ny:
-                        ccy -= ny
-                        syL = Ly
-                    cc = ccy * nx + ccx
-                    for p in range(cell_start[cc], cell_start[cc + 1]):
-                        j = cell_members[p]
-                        dx = pos[j, 0] + sxL - xi
-                        dy = pos[j, 1] + syL - yi
-                        cut = rbi + geo[j, 1]
-                        if dx * dx + dy * dy >= cut * cut or j == i:
-                            continue
-                        pair_weights(i, j, dx, dy, theta, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad,
-                                     W, tbuf, tid, acc)
+        if use_list:
+            for p in range(count[i]):
+                j = nbr[i, p]
+                dx = pos[j, 0] - xi
+                dy = pos[j, 1] - yi
+                # list pairs are closer than a third of the box: one shift at most
+                if dx > 0.5 * Lx:
+                    dx -= Lx
+                elif dx < -0.5 * Lx:
+                    dx += Lx
+                if dy > 0.5 * Ly:
+                    dy -= Ly
+                elif dy < -0.5 * Ly:
+                    dy += Ly
+                cut = rbi + geo[j, 1]
+                if dx * dx + dy * dy >= cut * cut:
+                    continue
+                pair_weights(i, j, dx, dy, theta, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad,
+                             W, tbuf, tid, acc)
         else:
             nimg = 1 if periodic else 0
             for j in range(N):

@@ -15,14 +15,16 @@ from numba import njit, prange
 from .celllist import build_cell_list, grid_shape
 from .contour import QUAD_ARC, all_rates, geometry
 from .options import NJIT
+from .verlet import build_verlet, needs_rebuild
 
 #: Status codes returned by :func:`run_chunk`.
 OK = 0
 NONFINITE = 1
 TOO_FAST = 2
+LIST_FULL = 3
 
 #: Indices into the float parameter vector of :func:`run_chunk`.
-P_LX, P_LY, P_R0, P_ETA, P_V0, P_MUT, P_MUS, P_DT, P_NOISE, P_SMAX, P_DMAX = range(11)
+P_LX, P_LY, P_R0, P_ETA, P_V0, P_MUT, P_MUS, P_DT, P_NOISE, P_SMAX, P_DMAX, P_SKIN = range(12)
 
 
 @njit(parallel=True, **NJIT)
@@ -79,49 +81,63 @@ def euler_update(pos, image, theta, a, b, dpos, dth, da, db, noise, Lx, Ly, peri
 
 
 @njit(**NJIT)
-def compute_rates(pos, theta, a, b, prm, periodic, quad, tables, scratch, cl, out):
-    """Geometry, cell list and rates for the current state (helper of run_chunk)."""
+def compute_rates(pos, theta, a, b, prm, periodic, quad, tables, scratch, cl, nl, out):
+    """Geometry, neighbour list and rates for the current state (helper of run_chunk).
+
+    Returns False if the neighbour list overflowed (the caller enlarges it and calls
+    again; nothing has been changed but scratch).
+    """
     cosn, sinn, cphi, sphi = tables
     R, dR, px, py, tx, ty, geo, W, tbuf, acc = scratch
     cell_of, cell_start, cell_members = cl
+    nbr, count, ref_pos, ref_rb, valid = nl
     dpos, dth, da, db = out
     R0 = prm[P_R0]
     geometry(theta, a, b, R0, cosn, sinn, cphi, sphi, R, dR, px, py, tx, ty, quad == QUAD_ARC, geo)
     Lx = prm[P_LX]
     Ly = prm[P_LY]
-    nx = 0
-    ny = 0
+    skin = prm[P_SKIN]
+    use_list = False
     if periodic:
         rbmax = 0.0
         for i in range(pos.shape[0]):
             rbmax = max(rbmax, geo[i, 1])
-        nx, ny = grid_shape(Lx, Ly, 2.0 * rbmax, pos.shape[0])
+        nx, ny = grid_shape(Lx, Ly, 2.0 * rbmax + skin, pos.shape[0])
         if nx >= 3 and ny >= 3 and (nx * ny + 1) <= cell_start.shape[0]:
-            build_cell_list(pos, Lx, Ly, nx, ny, cell_of, cell_start, cell_members)
+            use_list = True
+            if valid[0] == 0 or needs_rebuild(pos, geo, ref_pos, ref_rb, Lx, Ly, skin):
+                build_cell_list(pos, Lx, Ly, nx, ny, cell_of, cell_start, cell_members)
+                valid[0] = 0
+                if not build_verlet(pos, geo, Lx, Ly, skin, nx, ny, cell_of, cell_start, cell_members,
+                                    nbr, count, ref_pos, ref_rb):
+                    return False
+                valid[0] = 1
         else:
-            nx = 0
-            ny = 0
+            valid[0] = 0
     all_rates(pos, theta, a, b, Lx, Ly, periodic, R0, prm[P_ETA], prm[P_V0], prm[P_MUT], prm[P_MUS], quad,
               cosn, sinn, cphi, sphi, R, dR, px, py, tx, ty, geo, W, tbuf, acc,
-              nx, ny, cell_of, cell_start, cell_members, dpos, dth, da, db)
+              use_list, nbr, count, dpos, dth, da, db)
+    return True
 
 
 @njit(**NJIT)
-def run_chunk(pos, image, theta, a, b, noise, prm, periodic, quad, tables, scratch, cl, out, flags):
+def run_chunk(pos, image, theta, a, b, noise, prm, periodic, quad, tables, scratch, cl, nl, out, flags):
     """Advance ``noise.shape[0]`` steps; stop early at the first bad step.
 
     Returns
     -------
     steps_done : int
     status : int
-        OK, NONFINITE or TOO_FAST (the state is left at the bad step).
+        OK; NONFINITE or TOO_FAST (the state is left at the bad step); or
+        LIST_FULL (the step was not taken: enlarge the neighbour list and go on).
     projections : int
         Admissibility projections during the chunk.
     """
     dpos, dth, da, db = out
     nproj = 0
     for step in range(noise.shape[0]):
-        compute_rates(pos, theta, a, b, prm, periodic, quad, tables, scratch, cl, out)
+        if not compute_rates(pos, theta, a, b, prm, periodic, quad, tables, scratch, cl, nl, out):
+            return step, LIST_FULL, nproj
         euler_update(pos, image, theta, a, b, dpos, dth, da, db, noise[step], prm[P_LX], prm[P_LY], periodic,
                      prm[P_DT], prm[P_NOISE], prm[P_SMAX], prm[P_DMAX], flags)
         worst = 0

@@ -43,8 +43,24 @@ class Workspace:
             side = 2.0 * R0 / math.sqrt(3.0) * 0.999
             ncell = min(int(box[0] // side + 1) * int(box[1] // side + 1), max(4 * N, 9))
         self.cl = (np.zeros(N, np.int64), np.zeros(ncell + 1, np.int64), np.zeros(N, np.int64))
+        self.nl = self._neighbour_list(N, 16)
         self.out = (np.zeros((N, 2)), np.zeros(N), np.zeros((N, M1)), np.zeros((N, M1)))
         self.flags = np.zeros(N, np.int64)
+
+    @staticmethod
+    def _neighbour_list(N, capacity):
+        # (nbr, count, reference positions, reference bounding radii, valid flag)
+        return (np.zeros((N, capacity), np.int64), np.zeros(N, np.int64), np.zeros((N, 2)), np.zeros(N),
+                np.zeros(1, np.int64))
+
+    def grow_neighbour_list(self):
+        """Double the neighbour-list capacity (after a LIST_FULL status); forces a rebuild."""
+        N, cap = self.nl[0].shape
+        self.nl = self._neighbour_list(N, 2 * cap)
+
+
+#: Verlet skin in units of R0: lists are rebuilt after a cell moved ~skin/2.
+SKIN = 0.3
 
 
 def quadrature_code(name):
