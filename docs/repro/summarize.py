@@ -20,6 +20,39 @@ def slope(x, y):
     return p[0], int(m.sum())
 
 
+def logbinned_tau(sz, cs):
+    """Slope of the log-binned cluster-size density n(s) (clusters per unit size).
+
+    Bins [2^k, 2^(k+1)) from s = 2; only bins with at least 3 clusters are fitted.
+    """
+    edges = 2 ** np.arange(1, 16)
+    x, y = [], []
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        m = (sz >= lo) & (sz < hi)
+        c = cs[m].sum()
+        if c >= 3:
+            x.append(np.sqrt(lo * (hi - 1)))
+            y.append(c / (hi - lo))
+    return slope(np.array(x), np.array(y))
+
+
+def shell_slope(dx, gr, a=(2 * np.pi / (0.95 * np.sqrt(3))) ** 0.5):
+    """Slope of log(peak of G_r - 1) against log dx over lattice shells dx = n*a.
+
+    The peak of shell n is the largest sum of two adjacent bins within 0.4 of n*a.
+    """
+    x, y = [], []
+    for n in range(1, 20):
+        m = np.where(np.abs(dx - n * a) < 0.4)[0]
+        if len(m) < 2 or dx.max() < n * a:
+            break
+        g = np.nan_to_num(gr[m])
+        pk = max(g[k] + g[k + 1] for k in range(len(g) - 1)) - 2
+        x.append(n * a)
+        y.append(pk)
+    return slope(np.array(x), np.array(y))
+
+
 def peaks(qb, h):
     """Local maxima of a 3-bin smoothed histogram holding > 2 % of the peak height."""
     h = np.convolve(np.nan_to_num(h), np.ones(3) / 3, mode="same")
@@ -43,20 +76,11 @@ for path in sys.argv[1:]:
             f" psi6={float(s.psi6):.3f} phase={int(s.phase)} perc={int(s.percolated)}",
             f"| q peaks {peaks(ds.q_bin.values, s.q_hist.values)}",
         )
-        cs = s.cluster_size_distribution.values
+        cs = np.nan_to_num(s.cluster_size_distribution.values)
         sz = ds.cluster_size.values
-        n = len(cs[np.isfinite(cs) & (cs > 0)])
-        tau, npt = slope(sz[(sz >= 2) & (sz <= 40)], cs[(sz >= 2) & (sz <= 40)])
+        tau, npt = logbinned_tau(sz, cs)
         r = ds.r.values
         g6s, _ = slope(r[(r >= 2) & (r <= 6)], np.abs(s.G6.values[(r >= 2) & (r <= 6)]))
-        dx = ds.dx.values
-        gr = s.Gr.values - 1
-        mk = (dx >= 1.5) & (dx <= 7.5)
-        # G_r envelope: local maxima of G_r - 1 in the window
-        xm, ym = [], []
-        for j in np.where(mk)[0]:
-            if 0 < j < len(gr) - 1 and gr[j] > gr[j - 1] and gr[j] >= gr[j + 1] and gr[j] > 0:
-                xm.append(dx[j]); ym.append(gr[j])
-        grs, ngr = slope(np.array(xm), np.array(ym))
-        print(f"    cluster n(s) slope s=2..40: {tau:.2f} ({npt} sizes, {n} nonzero); "
-              f"G6 slope r=2..6: {g6s:.3f}; G_r-1 envelope slope dx=1.5..7.5: {grs:.2f} ({ngr} peaks)")
+        grs, ngr = shell_slope(ds.dx.values, s.Gr.values)
+        print(f"    cluster n(s) log-binned slope (s >= 2, bins with >= 3 clusters): {tau:.2f} ({npt} bins); "
+              f"G6 slope r=2..6: {g6s:.3f}; G_r shell-peak slope: {grs:.2f} ({ngr} shells)")
