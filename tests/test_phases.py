@@ -1,0 +1,52 @@
+"""Phase behaviour the paper reports, on small systems (MODEL.md, 'What the paper reports').
+
+These are physics regression checks of the whole engine: a stiff, slow population is a
+solid (caged: the MSD saturates far below one cell area), a soft, fast one is a soft
+fluid (cells migrate over several radii and are elongated, <q> > 3.81).
+"""
+
+import numpy as np
+import pytest
+
+from fcsweep.analysis.diffusion import effective_diffusion, fit_diffusion
+from fcsweep.analysis.msd import msd_curve
+from fcsweep.model.shape import Q_STAR, shape_index
+from fcsweep.simulation import Simulation
+
+
+def run(N, eta, v0, warm, frames, every, quadrature="binary"):
+    s = Simulation.from_lattice(N, eta=eta, v0=v0, Dr=0.01, seed=1, quadrature=quadrature)
+    s.advance(warm)
+    x, q = [], []
+    for _ in range(frames):
+        s.advance(every)
+        x.append(s.state.unwrapped().copy())
+        q.append(shape_index(s.state.a, s.state.b, points=256).mean())
+    msd, blocks = msd_curve(np.array(x))
+    t = np.arange(frames) * every * s.params.dt
+    fit = fit_diffusion(t, msd, msd_blocks=blocks)
+    D_eff, err = effective_diffusion(fit.D, fit.D_err, v0, 0.01)
+    return msd, D_eff, err, float(np.mean(q))
+
+
+def test_solid_and_soft_fluid_small_system():
+    """N = 64, 100 time units after 20: measured MSD(100) = 0.002 vs 3.2 R0^2,
+    <q> = 3.56 vs 3.97, D_eff = 1.0e-3 vs 3.0e-2."""
+    msd_s, De_s, _, q_s = run(64, 0.1, 0.01, 4000, 200, 100)
+    msd_f, De_f, _, q_f = run(64, 0.01, 0.06, 4000, 200, 100)
+    assert msd_s[-1] < 0.05  # caged: far below a cell area (pi R0^2)
+    assert msd_f[-1] > 1.0  # migrates over more than a radius
+    assert q_s < Q_STAR < q_f
+    assert De_f > 10 * De_s
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("quadrature", ["binary", "arc"])
+def test_phase_labels_at_paper_corners(quadrature):
+    """N = 256, 500 time units: solid (D_eff < 1e-3) at eta = 0.1, v0 = 0.01 and soft
+    fluid (D_eff > 1e-3, <q> > 3.81) at eta = 0.01, v0 = 0.06, with either quadrature."""
+    _, De_s, err_s, q_s = run(256, 0.1, 0.01, 20000, 500, 200, quadrature)
+    _, De_f, err_f, q_f = run(256, 0.01, 0.06, 20000, 500, 200, quadrature)
+    assert De_s < 1e-3
+    assert De_f > 1e-3 and q_f > Q_STAR
+    assert q_s < Q_STAR
