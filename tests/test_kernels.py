@@ -22,11 +22,13 @@ def assert_same(r1, r2, tol=1e-11):
         assert np.abs(r1[k] - r2[k]).max() <= tol * scale, k
 
 
-@pytest.mark.parametrize("quadrature", ["binary", "linear"])
+@pytest.mark.parametrize("quadrature", ["binary", "linear", "arc"])
 @pytest.mark.parametrize("N,M1,deform", [(16, 5, 0.1), (144, 5, 0.15), (64, 7, 0.2), (36, 1, 0.3), (64, 5, 0.8)])
 def test_kernel_equals_numpy_twin(quadrature, N, M1, deform):
-    """Windows, cell list (N >= 64), all-image path (N = 16, 36), generic M (M1 = 7) and
-    shapes at the admissibility bound (0.8 of 0.816) give the twin's rates to round-off."""
+    """Windows, neighbour lists (N >= 64), all-image path (N = 16, 36), generic M (M1 = 7)
+    and shapes at the admissibility bound (0.8 of 0.816) give the twin's rates to
+    round-off.  The arc twin finds the Hermite roots with numpy.roots instead of the
+    kernel's safeguarded Newton iteration, so this also checks the root finding."""
     pos, theta, a, b, box = dense_config(N, seed=N + M1, deform=deform, M1=M1)
     kw = dict(eta=0.05, v0=0.03, box=box, contour_points=40, quadrature=quadrature)
     assert_same(rates(pos, theta, a, b, **kw), kernel_rates(pos, theta, a, b, **kw))

@@ -87,6 +87,7 @@ def occupancy(pos, theta, a, b, *, box=None, R0=1.0, contour_points=40, quadratu
         Periodic box; ``None`` for open boundaries.
     quadrature : {"binary", "linear"}
         ``binary``: o_ik counts the neighbours whose interior holds the point (paper).
+        (The arc rule has no point weights; see :func:`arc_integrals`.)
         ``linear``: each point is weighted by the inside fraction of the half segments
         on either side of it, from linear interpolation of the radial gap.
 
@@ -127,10 +128,12 @@ def contour_radius(phi, a, b, R0=1.0):
     return radius(phi, a, b, R0)
 
 
-def rates_from_occupancy(o, theta, a, b, *, eta, v0, R0=1.0, mu_theta=1.0, mu_shape=1.0):
+def rates_from_occupancy(o, theta, a, b, *, eta, v0, R0=1.0, mu_theta=1.0, mu_shape=1.0, arcs=None):
     """Deterministic rates from given contour weights ``o`` (N, K); see module docstring.
 
-    The perimeter gradient is evaluated on the same K contour points.
+    The perimeter gradient is evaluated on the same K contour points.  ``arcs``
+    (N, 4 + 2(M-1)), if given, adds overlap integrals computed on exact arcs (the arc
+    rule): [force x, force y, torque, int R, int R cos n phi, int R sin n phi].
     """
     theta = np.asarray(theta, dtype=float)
     N, K = o.shape
@@ -152,10 +155,87 @@ def rates_from_occupancy(o, theta, a, b, *, eta, v0, R0=1.0, mu_theta=1.0, mu_sh
     # dR/da_n = R0 (cos n phi - a_n/(2 a0)),  dR'/da_n = -n R0 sin n phi
     u = o * R + eta * R / s
     v = eta * dR / s
-    usum = u.sum(axis=1)[:, None]
-    da = -mu_shape * R0 * dphi * (u @ cos_n.T - a / (2 * a0) * usum - n * (v @ sin_n.T))
-    db = -mu_shape * R0 * dphi * (u @ sin_n.T - b / (2 * a0) * usum + n * (v @ cos_n.T))
+    uc, us, usum = dphi * (u @ cos_n.T), dphi * (u @ sin_n.T), dphi * u.sum(axis=1)[:, None]
+    if arcs is not None:
+        M1 = a.shape[1]
+        dpos = dpos + arcs[:, 0:2]
+        dtheta = dtheta + mu_theta * arcs[:, 2]
+        usum = usum + arcs[:, 3:4]
+        uc = uc + arcs[:, 4:4 + M1]
+        us = us + arcs[:, 4 + M1:4 + 2 * M1]
+    da = -mu_shape * R0 * (uc - a / (2 * a0) * usum - n * dphi * (v @ sin_n.T))
+    db = -mu_shape * R0 * (us - b / (2 * a0) * usum + n * dphi * (v @ cos_n.T))
     return {"dpos": dpos, "dtheta": dtheta, "da": da, "db": db}
+
+
+def _hermite(t, g0, g1, m0, m1):
+    """Cubic Hermite interpolant on [0, 1] (slopes scaled by the segment length)."""
+    return ((2 * t**3 - 3 * t**2 + 1) * g0 + (t**3 - 2 * t**2 + t) * m0 + (-2 * t**3 + 3 * t**2) * g1
+            + (t**3 - t**2) * m1)
+
+
+def _inside_pieces(g0, g1, m0, m1):
+    """Sub-intervals of [0, 1] where the Hermite cubic of the gap is positive."""
+    # power-basis coefficients of p(t) = c3 t^3 + c2 t^2 + c1 t + c0
+    c3 = 2 * g0 + m0 - 2 * g1 + m1
+    c2 = -3 * g0 - 2 * m0 + 3 * g1 - m1
+    roots = np.roots([c3, c2, m0, g0]) if abs(c3) + abs(c2) + abs(m0) > 0 else np.array([])
+    cuts = sorted(r.real for r in roots if abs(r.imag) < 1e-12 and 0.0 < r.real < 1.0)
+    edges = [0.0, *cuts, 1.0]
+    return [(lo, hi) for lo, hi in zip(edges[:-1], edges[1:]) if hi > lo and _hermite(0.5 * (lo + hi), g0, g1, m0, m1) > 0]
+
+
+def arc_integrals(pos, theta, a, b, *, box=None, R0=1.0, contour_points=40):
+    """Overlap integrals of the contact-arc rule, the numpy twin of :mod:`fcsweep.kernels.arcs`.
+
+    For every contour segment of cell i the radial gap g to each neighbour j and its
+    derivative dg/dphi = R_j'(psi) dpsi/dphi - d.t/|d| (t = dx_i/dphi) at the two ends
+    define a cubic Hermite interpolant; where it is positive the integrands are integrated
+    with two-point Gauss-Legendre.  Returns (N, 4 + 2(M-1)) as in :func:`rates_from_occupancy`.
+    """
+    N, M1 = a.shape
+    K = int(contour_points)
+    h = 2.0 * np.pi / K
+    phi = h * np.arange(K + 1)
+    n = mode_numbers(M1)
+    Rb = R0 * (a0_of(a, b) + amplitude_sum(a, b))
+    out = np.zeros((N, 4 + 2 * M1))
+    nodes = 0.5 + np.array([-0.5, 0.5]) / np.sqrt(3.0)
+    for i in range(N):
+        R, dR = contour_radius(phi, a[i], b[i], R0)
+        lab = theta[i] + phi
+        e = np.stack([np.cos(lab), np.sin(lab)], axis=-1)
+        ep = np.stack([-np.sin(lab), np.cos(lab)], axis=-1)
+        x = R[:, None] * e
+        tan = dR[:, None] * e + R[:, None] * ep
+        for j in range(N):
+            for shift in _images(box):
+                if i == j and not shift.any():
+                    continue
+                rij = pos[j] + shift - pos[i]
+                if np.hypot(*rij) >= Rb[i] + Rb[j]:
+                    continue
+                d = x - rij
+                dist = np.hypot(d[:, 0], d[:, 1])
+                psi = np.arctan2(d[:, 1], d[:, 0]) - theta[j]
+                Rj, dRj = contour_radius(psi, a[j], b[j], R0)
+                g = Rj - dist
+                dpsi = (d[:, 0] * tan[:, 1] - d[:, 1] * tan[:, 0]) / dist**2
+                slope = h * (dRj * dpsi - (d * tan).sum(axis=1) / dist)
+                for k in range(K):
+                    for lo, hi in _inside_pieces(g[k], g[k + 1], slope[k], slope[k + 1]):
+                        ph = phi[k] + h * (lo + (hi - lo) * nodes)
+                        w = 0.5 * (hi - lo) * h
+                        Rg, dRg = contour_radius(ph, a[i], b[i], R0)
+                        lg = theta[i] + ph
+                        ex, ey = np.cos(lg), np.sin(lg)
+                        out[i, 0] += w * np.sum(-dRg * ey - Rg * ex)
+                        out[i, 1] += w * np.sum(dRg * ex - Rg * ey)
+                        out[i, 2] += w * np.sum(Rg * dRg)
+                        out[i, 3] += w * np.sum(Rg)
+                        out[i, 4:4 + M1] += w * (np.cos(np.multiply.outer(n, ph)) @ Rg)
+                        out[i, 4 + M1:] += w * (np.sin(np.multiply.outer(n, ph)) @ Rg)
+    return out
 
 
 def disc_rates(pos, theta, *, v0, box=None, R0=1.0):
@@ -221,9 +301,8 @@ def rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, contour_points=40, qua
     if a.shape[1] == 0:
         return disc_rates(pos, theta, v0=v0, box=box, R0=R0)
     if quadrature == "arc":
-        from ..kernels.api import kernel_rates  # the arc rule has no separate numpy twin here
-
-        return kernel_rates(pos, theta, a, b, eta=eta, v0=v0, box=box, R0=R0, contour_points=contour_points,
-                            quadrature=quadrature, mu_theta=mu_theta, mu_shape=mu_shape)
+        arcs = arc_integrals(pos, theta, a, b, box=box, R0=R0, contour_points=contour_points)
+        return rates_from_occupancy(np.zeros((N, int(contour_points))), theta, a, b, eta=eta, v0=v0, R0=R0,
+                                    mu_theta=mu_theta, mu_shape=mu_shape, arcs=arcs)
     o = occupancy(pos, theta, a, b, box=box, R0=R0, contour_points=contour_points, quadrature=quadrature)
     return rates_from_occupancy(o, theta, a, b, eta=eta, v0=v0, R0=R0, mu_theta=mu_theta, mu_shape=mu_shape)
