@@ -15,6 +15,7 @@ import json
 import math
 import os
 import tempfile
+import warnings
 from dataclasses import dataclass, field
 
 import numba
@@ -29,6 +30,10 @@ from .model.shape import ADMISSIBLE_BOUND, PROJECTION_MARGIN
 
 #: Steps whose noise is drawn at once; any value gives the same trajectory.
 CHUNK = 256
+#: Fraction of cell-steps projected back onto the admissibility bound, within one chunk,
+#: above which advance() warns: shapes pinned at the bound are a sign of too large a dt
+#: (MODEL.md: at eta = 0.03, dt = 0.2 gives <q> = 4.5 instead of 3.7 while staying finite).
+PINNED_WARNING = 0.25
 #: Cells per thread below which extra threads cost more in synchronisation (three
 #: parallel regions per step) than they save; results do not depend on the threads.
 CELLS_PER_THREAD = 512
@@ -133,6 +138,7 @@ class Simulation:
         self._ws = Workspace(params.N, params.contour_points, M1, params.box, params.R0)
         self._periodic = True
         self._quad = quadrature_code(params.quadrature)
+        self._warned_pinned = False
         spacing = 2.0 * math.pi * params.R0 / params.contour_points
         self._prm = param_vector(
             box=params.box, R0=params.R0, eta=params.eta, v0=params.v0, mu_theta=params.mu_theta,
@@ -184,6 +190,7 @@ class Simulation:
         numba.set_num_threads(max(1, min(threads, self.params.N // CELLS_PER_THREAD)))
         try:
             done = 0
+            proj_before = s.projections
             while done < steps:
                 n = min(CHUNK, steps - done)
                 noise = self.rng.standard_normal((n, self.params.N))
@@ -200,6 +207,14 @@ class Simulation:
                     elif status != OK:
                         raise SimulationError(self._failure_message(status))
                 done += n
+                pinned = (s.projections - proj_before) / (n * self.params.N)
+                proj_before = s.projections
+                if pinned > PINNED_WARNING and not self._warned_pinned:
+                    self._warned_pinned = True
+                    warnings.warn(
+                        f"{pinned:.0%} of cell-steps were projected back onto the admissibility bound "
+                        f"(steps {s.step - n}-{s.step}); unless eta is tiny this means dt={self.params.dt:g} "
+                        f"is too large: try dt={self.params.dt / 4:g}", RuntimeWarning, stacklevel=2)
         finally:
             numba.set_num_threads(threads)
 

@@ -193,3 +193,10 @@ def test_neighbour_list_growth_and_rebuild_times_do_not_change_the_run():
     sim.advance(150)
     assert sim._ws.nl[0].shape[1] >= 4
     assert_bitwise(snapshot(ref), snapshot(sim))
+
+
+def test_shapes_pinned_at_the_bound_raise_a_warning_naming_dt():
+    """Projections in a quarter of all cell-steps (here eta = 0, v0 = 0.2) are reported."""
+    s = make(N=36, eta=0.0, v0=0.2, Dr=0.01, seed=1)
+    with pytest.warns(RuntimeWarning, match=r"admissibility bound.*try dt="):
+        s.advance(3000)
