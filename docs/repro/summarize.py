@@ -60,27 +60,33 @@ def peaks(qb, h):
     return [round(float(qb[k]), 3) for k in i]
 
 
-for path in sys.argv[1:]:
-    ds = xr.open_dataset(path)
-    print("#", path, dict(ds.sizes))
-    st = ds.stack(pt=[d for d in ds["D_eff"].dims])
-    for k in range(st.sizes["pt"]):
-        s = st.isel(pt=k)
-        lab = {d: float(s[d]) for d in ds["D_eff"].dims if d != "replicate"}
-        print(
-            " ".join(f"{d}={v:g}" for d, v in lab.items()),
-            f"| D_eff={float(s.D_eff):.3g}+-{float(s.D_eff_err):.2g}"
-            f" q={float(s.q_mean):.4f} q>3.81={float(s.q_frac_above):.3f}"
-            f" rho_d={float(s.rho_d):.3f}+-{float(s.rho_d_err):.3f}"
-            f" Pmax={float(s.largest_cluster_fraction):.3f}+-{float(s.largest_cluster_fraction_err):.3f}"
-            f" psi6={float(s.psi6):.3f} phase={int(s.phase)} perc={int(s.percolated)}",
-            f"| q peaks {peaks(ds.q_bin.values, s.q_hist.values)}",
-        )
-        cs = np.nan_to_num(s.cluster_size_distribution.values)
-        sz = ds.cluster_size.values
-        tau, npt = logbinned_tau(sz, cs)
-        r = ds.r.values
-        g6s, _ = slope(r[(r >= 2) & (r <= 6)], np.abs(s.G6.values[(r >= 2) & (r <= 6)]))
-        grs, ngr = shell_slope(ds.dx.values, s.Gr.values)
-        print(f"    cluster n(s) log-binned slope (s >= 2, bins with >= 3 clusters): {tau:.2f} ({npt} bins); "
-              f"G6 slope r=2..6: {g6s:.3f}; G_r shell-peak slope: {grs:.2f} ({ngr} shells)")
+def main(paths):
+    """Print the tables and fits for each dataset path."""
+    for path in paths:
+        ds = xr.open_dataset(path)
+        print("#", path, dict(ds.sizes))
+        st = ds.stack(pt=[d for d in ds["D_eff"].dims])
+        for k in range(st.sizes["pt"]):
+            s = st.isel(pt=k)
+            lab = {d: float(s[d]) for d in ds["D_eff"].dims if d != "replicate"}
+            print(
+                " ".join(f"{d}={v:g}" for d, v in lab.items()),
+                f"| D_eff={float(s.D_eff):.3g}+-{float(s.D_eff_err):.2g}"
+                f" q={float(s.q_mean):.4f} q>3.81={float(s.q_frac_above):.3f}"
+                f" rho_d={float(s.rho_d):.3f}+-{float(s.rho_d_err):.3f}"
+                f" Pmax={float(s.largest_cluster_fraction):.3f}+-{float(s.largest_cluster_fraction_err):.3f}"
+                f" psi6={float(s.psi6):.3f} phase={int(s.phase)} perc={int(s.percolated)}",
+                f"| q peaks {peaks(ds.q_bin.values, s.q_hist.values)}",
+            )
+            cs = np.nan_to_num(s.cluster_size_distribution.values)
+            sz = ds.cluster_size.values
+            tau, npt = logbinned_tau(sz, cs)
+            r = ds.r.values
+            g6s, _ = slope(r[(r >= 2) & (r <= 6)], np.abs(s.G6.values[(r >= 2) & (r <= 6)]))
+            grs, ngr = shell_slope(ds.dx.values, s.Gr.values)
+            print(f"    cluster n(s) log-binned slope (s >= 2, bins with >= 3 clusters): {tau:.2f} ({npt} bins); "
+                  f"G6 slope r=2..6: {g6s:.3f}; G_r shell-peak slope: {grs:.2f} ({ngr} shells)")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
