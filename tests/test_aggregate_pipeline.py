@@ -150,3 +150,25 @@ def test_figures_are_written(sweep, tmp_path):
     paths += plot_sweep(cfg, run=0, frame=-1, outdir=tmp_path / "fig")
     for p in paths:
         assert p.exists() and p.stat().st_size > 1000, p
+
+
+def test_any_swept_parameter_becomes_a_dimension(tmp_path):
+    """Sweeping Dr (a float) and quadrature (a string) besides eta gives dims
+    (eta, v0, N, Dr, quadrature, replicate), with CF attributes on the new coordinates."""
+    text = YAML.replace("  eta: [0.01, 0.1]\n  v0: [0.03, 0.06]\n",
+                        "  eta: [0.1]\n  Dr: [0.003, 0.01]\n  quadrature: [binary, arc]\n")
+    text = text.replace("v0: [0.03, 0.06]", "").replace("Dr: 0.01, ", "v0: 0.03, ")
+    cfg = config_mod.parse_config(text.format(out=tmp_path))
+    for k, spec in enumerate(cfg.runs()):
+        rd = tmp_path / "runs" / spec.run_id
+        rd.mkdir(parents=True)
+        write_trajectory(rd / "trajectory.h5", {**dict(spec.params), "run_id": spec.run_id}, seed=k)
+        (rd / "status.json").write_text(json.dumps({"status": "done", "reason": ""}))
+    analyze_sweep(cfg, workers=1)
+    ds = xr.open_dataset(aggregate_sweep(cfg))
+    assert ds["D_eff"].dims == ("eta", "v0", "N", "Dr", "quadrature", "replicate")
+    assert ds["D_eff"].shape == (1, 1, 1, 2, 2, 1)
+    assert "long_name" in ds["Dr"].attrs and "long_name" in ds["quadrature"].attrs
+    assert np.all(np.isfinite(ds["q_mean"].values))
+    paths = plot_sweep(cfg)
+    assert paths and all(p.stat().st_size > 0 for p in paths)

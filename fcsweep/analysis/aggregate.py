@@ -106,8 +106,22 @@ def _dims(config) -> list[str]:
     return list(CORE_DIMS) + [s for s in swept if s not in CORE_DIMS] + ["replicate"]
 
 
+#: Long names of model parameters that may be swept besides eta, v0 and N.
+PARAMETER_META = {
+    "Dr": ("rotational diffusion D_r (per time unit)", "1"),
+    "density": ("area fraction N pi R0^2 / (Lx Ly)", "1"),
+    "dt": ("Euler-Maruyama time step (time units)", "1"),
+    "modes": ("highest Fourier mode M", "1"),
+    "contour_points": ("contour quadrature points K", "1"),
+    "quadrature": ("contact quadrature rule", ""),
+    "R0": ("radius of the circle of equal area (length unit)", "1"),
+    "mu_theta": ("mobility of the polarity angle", "1"),
+    "mu_shape": ("mobility of the shape modes", "1"),
+}
+
+
 def _attrs(name: str) -> dict:
-    ln, un = META[name]
+    ln, un = META.get(name) or PARAMETER_META.get(name) or (f"swept parameter {name}", "1")
     out = {"long_name": ln}
     if un:
         out["units"] = un
