@@ -181,27 +181,33 @@ def cluster_sizes(ds, *, v0=None, select=None):
     return fig
 
 
-def correlations(ds, *, eta=None, v0=None, select=None):
-    """G_r(dx, 0) - 1 and G6(r) on log-log axes with the KTHNY -1/3 and -1/4 guides,
-    one curve per eta at one v0 (default: the largest), or one point if ``eta`` given."""
+def correlations(ds, *, across="eta", at=None, select=None):
+    """G_r(dx, 0) - 1 and G6(r) on log-log axes with the KTHNY -1/3 and -1/4 guides.
+
+    One curve per value of ``across`` ("eta" or "v0") with the other parameter fixed at
+    ``at`` (default: its largest value): the paper's Fig. 4 shows both cuts, across v0
+    at eta = 0.1 and across eta at v0 = 0.06.
+    """
+    fixed = "v0" if across == "eta" else "eta"
     sel = dict(select or {})
-    sel["v0"] = ds["v0"].values[-1] if v0 is None else v0
-    gr = _plane(ds, "Gr", ("eta", "dx"), sel)
-    g6 = _plane(ds, "G6", ("eta", "r"), sel)
-    etas = gr["eta"].values if eta is None else [gr["eta"].sel(eta=eta, method="nearest").item()]
+    sel[fixed] = ds[fixed].values[-1] if at is None else at
+    gr = _plane(ds, "Gr", (across, "dx"), sel)
+    g6 = _plane(ds, "G6", (across, "r"), sel)
+    values = gr[across].values
+    label = r"$\eta$" if across == "eta" else r"$v_0$"
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(9, 3.8))
     cmap = plt.get_cmap("plasma")
-    for k, e in enumerate(etas):
-        col = cmap(k / max(len(etas) - 1, 1))
-        y = gr.sel(eta=e).values - 1.0
+    for k, e in enumerate(values):
+        col = cmap(k / max(len(values) - 1, 1))
+        y = gr.sel({across: e}).values - 1.0
         x = gr["dx"].values
         ok = np.isfinite(y) & (y > 0)
         if ok.any():
-            a1.loglog(x[ok], y[ok], ".", ms=3, color=col, label=rf"$\eta$={e:g}")
-        y6 = g6.sel(eta=e).values
+            a1.loglog(x[ok], y[ok], ".", ms=3, color=col, label=f"{label}={e:g}")
+        y6 = g6.sel({across: e}).values
         ok6 = np.isfinite(y6) & (y6 > 0)
         if ok6.any():
-            a2.loglog(g6["r"].values[ok6], y6[ok6], "-", color=col, label=rf"$\eta$={e:g}")
+            a2.loglog(g6["r"].values[ok6], y6[ok6], "-", color=col, label=f"{label}={e:g}")
     for ax, slope, lab, xs in ((a1, -1 / 3, r"$\Delta x^{-1/3}$", gr["dx"].values),
                                (a2, -1 / 4, r"$r^{-1/4}$", g6["r"].values)):
         xs = xs[np.isfinite(xs) & (xs > 0)]
@@ -213,7 +219,8 @@ def correlations(ds, *, eta=None, v0=None, select=None):
     a1.set_ylabel(r"$G_r(\Delta x, 0) - 1$")
     a2.set_xlabel(r"$r / R_0$")
     a2.set_ylabel(r"$G_6(r)$")
-    fig.suptitle(rf"$v_0$ = {float(sel['v0']):g}")
+    fixed_label = r"$v_0$" if fixed == "v0" else r"$\eta$"
+    fig.suptitle(f"{fixed_label} = {float(sel[fixed]):g}")
     return fig
 
 

@@ -56,7 +56,9 @@ def plot_dataset(ds: xr.Dataset, outdir) -> list[Path]:
     out = []
     for name, fn in (("phase_diagram", plots.phase_diagram), ("q_distributions", plots.q_distributions),
                      ("largest_cluster", plots.largest_cluster), ("cluster_sizes", plots.cluster_sizes),
-                     ("correlations", plots.correlations), ("msd", plots.msd_curves)):
+                     ("correlations", plots.correlations),
+                     ("correlations_across_v0", lambda d: plots.correlations(d, across="v0")),
+                     ("msd", plots.msd_curves)):
         out += plots.save_figure(fn(ds), outdir / name)
     return out
 
