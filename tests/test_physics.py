@@ -53,7 +53,7 @@ def test_action_reaction_vanishes_with_K(quadrature, Ks, last_tol):
     assert imb[-1] <= imb[0] + 1e-12
 
 
-@pytest.mark.parametrize("quadrature,K,tol", [("binary", 10240, 0.01), ("linear", 1280, 0.01), ("arc", 40, 0.05),
+@pytest.mark.parametrize("quadrature,K,tol", [("binary", 10240, 2e-3), ("linear", 1280, 0.01), ("arc", 40, 0.05),
                                               ("arc", 160, 0.005)])
 def test_rates_match_finite_differences_of_exact_overlap(quadrature, K, tol):
     """Rates against the continuum integrals on exact arcs, which themselves equal finite
