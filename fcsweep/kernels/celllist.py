@@ -74,19 +74,3 @@ def build_cell_list(pos, Lx, Ly, nx, ny, cell_of, cell_start, cell_members):
         c = cell_of[i]
         cell_members[fill[c]] = i
         fill[c] += 1
-
-
-def neighbour_pairs_bruteforce(pos, box, cutoff):
-    """All (i, j, shift) with |r_j + shift - r_i| < cutoff; numpy helper for tests."""
-    out = []
-    N = len(pos)
-    for i in range(N):
-        for j in range(N):
-            if i == j:
-                continue
-            for sx in (-1, 0, 1):
-                for sy in (-1, 0, 1):
-                    d = pos[j] + np.array([sx * box[0], sy * box[1]]) - pos[i]
-                    if np.hypot(*d) < cutoff:
-                        out.append((i, j, sx, sy))
-    return out
