@@ -182,7 +182,8 @@ def _inside_pieces(g0, g1, m0, m1):
     roots = np.roots([c3, c2, m0, g0]) if abs(c3) + abs(c2) + abs(m0) > 0 else np.array([])
     cuts = sorted(r.real for r in roots if abs(r.imag) < 1e-12 and 0.0 < r.real < 1.0)
     edges = [0.0, *cuts, 1.0]
-    return [(lo, hi) for lo, hi in zip(edges[:-1], edges[1:]) if hi > lo and _hermite(0.5 * (lo + hi), g0, g1, m0, m1) > 0]
+    return [(lo, hi) for lo, hi in zip(edges[:-1], edges[1:])
+            if hi > lo and _hermite(0.5 * (lo + hi), g0, g1, m0, m1) > 0]
 
 
 def arc_integrals(pos, theta, a, b, *, box=None, R0=1.0, contour_points=40):
