@@ -16,7 +16,7 @@ import math
 import os
 import tempfile
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numba
 import numpy as np
@@ -25,7 +25,7 @@ from . import __version__
 from .kernels.step import LIST_FULL, NONFINITE, OK, run_chunk
 from .kernels.api import param_vector
 from .kernels.workspace import Workspace, quadrature_code
-from .model.lattice import hexagonal_lattice
+from .model.lattice import hexagonal_lattice, lattice_box
 from .model.shape import ADMISSIBLE_BOUND, PROJECTION_MARGIN
 
 #: Steps whose noise is drawn at once; any value gives the same trajectory.
@@ -85,7 +85,8 @@ class SimParams:
     @property
     def box(self) -> np.ndarray:
         """Periodic box (Lx, Ly) of the n x n lattice at this density."""
-        return hexagonal_lattice(self.N, self.density, self.R0)[1]
+        _, Lx, Ly = lattice_box(self.N, self.density, self.R0)
+        return np.array([Lx, Ly])
 
     def to_dict(self) -> dict:
         """Plain dict of all fields."""
@@ -115,7 +116,6 @@ class State:
     box: np.ndarray
     step: int = 0
     projections: int = 0
-    extra: dict = field(default_factory=dict)
 
     def unwrapped(self) -> np.ndarray:
         """Unwrapped centres ``pos + image * box`` (N, 2)."""

@@ -18,7 +18,7 @@ import itertools
 
 import numpy as np
 
-from .shape import a0_of, amplitude_sum, mode_numbers
+from .shape import a0_of, amplitude_sum, mode_numbers, radius
 
 #: Quadrature rules for the overlap weights.
 QUADRATURES = ("binary", "linear", "arc")
@@ -103,7 +103,7 @@ def occupancy(pos, theta, a, b, *, box=None, R0=1.0, contour_points=40, quadratu
     b = np.asarray(b, dtype=float).reshape(len(pos), -1)
     N, K = len(pos), int(contour_points)
     phi = 2.0 * np.pi * np.arange(K) / K
-    R, _ = contour_radius(phi, a, b, R0)
+    R, _ = radius(phi, a, b, R0)
     lab = theta[:, None] + phi[None, :]
     pts = np.stack([R * np.cos(lab), R * np.sin(lab)], axis=-1)  # (N, K, 2) relative to r_i
     Rb = R0 * (a0_of(a, b) + amplitude_sum(a, b))
@@ -121,13 +121,6 @@ def occupancy(pos, theta, a, b, *, box=None, R0=1.0, contour_points=40, quadratu
     return o
 
 
-def contour_radius(phi, a, b, R0=1.0):
-    """R and R' of every cell on the angles ``phi``; shapes (N, K)."""
-    from .shape import radius
-
-    return radius(phi, a, b, R0)
-
-
 def rates_from_occupancy(o, theta, a, b, *, eta, v0, R0=1.0, mu_theta=1.0, mu_shape=1.0, arcs=None):
     """Deterministic rates from given contour weights ``o`` (N, K); see module docstring.
 
@@ -139,7 +132,7 @@ def rates_from_occupancy(o, theta, a, b, *, eta, v0, R0=1.0, mu_theta=1.0, mu_sh
     N, K = o.shape
     dphi = 2.0 * np.pi / K
     phi = dphi * np.arange(K)
-    R, dR = contour_radius(phi, a, b, R0)
+    R, dR = radius(phi, a, b, R0)
     lab = theta[:, None] + phi[None, :]
     e = np.stack([np.cos(lab), np.sin(lab)], axis=-1)
     e_perp = np.stack([-np.sin(lab), np.cos(lab)], axis=-1)
@@ -203,7 +196,7 @@ def arc_integrals(pos, theta, a, b, *, box=None, R0=1.0, contour_points=40):
     out = np.zeros((N, 4 + 2 * M1))
     nodes = 0.5 + np.array([-0.5, 0.5]) / np.sqrt(3.0)
     for i in range(N):
-        R, dR = contour_radius(phi, a[i], b[i], R0)
+        R, dR = radius(phi, a[i], b[i], R0)
         lab = theta[i] + phi
         e = np.stack([np.cos(lab), np.sin(lab)], axis=-1)
         ep = np.stack([-np.sin(lab), np.cos(lab)], axis=-1)
@@ -219,7 +212,7 @@ def arc_integrals(pos, theta, a, b, *, box=None, R0=1.0, contour_points=40):
                 d = x - rij
                 dist = np.hypot(d[:, 0], d[:, 1])
                 psi = np.arctan2(d[:, 1], d[:, 0]) - theta[j]
-                Rj, dRj = contour_radius(psi, a[j], b[j], R0)
+                Rj, dRj = radius(psi, a[j], b[j], R0)
                 g = Rj - dist
                 dpsi = (d[:, 0] * tan[:, 1] - d[:, 1] * tan[:, 0]) / dist**2
                 slope = h * (dRj * dpsi - (d * tan).sum(axis=1) / dist)
@@ -227,7 +220,7 @@ def arc_integrals(pos, theta, a, b, *, box=None, R0=1.0, contour_points=40):
                     for lo, hi in _inside_pieces(g[k], g[k + 1], slope[k], slope[k + 1]):
                         ph = phi[k] + h * (lo + (hi - lo) * nodes)
                         w = 0.5 * (hi - lo) * h
-                        Rg, dRg = contour_radius(ph, a[i], b[i], R0)
+                        Rg, dRg = radius(ph, a[i], b[i], R0)
                         lg = theta[i] + ph
                         ex, ey = np.cos(lg), np.sin(lg)
                         out[i, 0] += w * np.sum(-dRg * ey - Rg * ex)
