@@ -7,14 +7,14 @@
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import h5py
 import numpy as np
 
-CELLS = "/particles/cells"
-PARAMETERS = "/parameters"
+from fcsweep.io.schema import PARAMETERS
+from fcsweep.io.schema import PARTICLES as CELLS
 
 
 class TrajectoryError(RuntimeError):
@@ -55,7 +55,6 @@ class Trajectory:
     fields: tuple
     n_cells: int
     modes_width: int = 0
-    extra: dict = field(default_factory=dict)
 
     @property
     def n_frames(self) -> int:

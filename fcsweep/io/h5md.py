@@ -24,7 +24,6 @@ from __future__ import annotations
 import getpass
 import json
 import os
-from pathlib import Path
 from typing import Any, Callable, Mapping, Sequence
 
 import h5py
@@ -38,7 +37,6 @@ __all__ = [
     "truncate_frames",
     "frame_count",
     "set_attrs",
-    "read_trajectory",
     "read_parameters",
     "open_h5",
     "fsync_path",
@@ -265,28 +263,3 @@ def read_parameters(path) -> dict[str, Any]:
     """Attributes of ``/parameters`` as a plain dict (JSON strings left as strings)."""
     with open_h5(path, "r") as f:
         return {k: (v.item() if isinstance(v, np.generic) else v) for k, v in f[PARAMETERS].attrs.items()}
-
-
-def read_trajectory(path, fields: Sequence[str] | None = None) -> dict[str, Any]:
-    """Read a whole trajectory into memory.
-
-    Returns
-    -------
-    dict
-        ``step`` (T,), ``time`` (T,), ``edges`` (2,), ``parameters`` (dict),
-        ``projections`` (T,) and one array per stored field, e.g. ``position`` (T, N, 2).
-    """
-    path = Path(path)
-    with open_h5(path, "r") as f:
-        cells = f[PARTICLES]
-        out: dict[str, Any] = {
-            "step": cells["position"]["step"][()],
-            "time": cells["position"]["time"][()],
-            "edges": cells["box"]["edges"][()],
-            "projections": f[OBSERVABLES]["projections"]["value"][()],
-        }
-        names = [n for n in cells if n != "box"] if fields is None else list(fields)
-        for name in names:
-            out[name] = cells[name]["value"][()]
-    out["parameters"] = read_parameters(path)
-    return out
