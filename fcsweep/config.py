@@ -44,6 +44,8 @@ from typing import Any, Mapping
 import numpy as np
 import yaml
 
+from fcsweep.model.rates import QUADRATURES
+
 __all__ = [
     "ConfigError",
     "SweepConfig",
@@ -81,7 +83,6 @@ MODEL_DEFAULTS: dict[str, Any] = {
 }
 INT_PARAMS = ("N", "modes", "contour_points")
 STR_PARAMS = ("quadrature",)
-QUADRATURES = ("binary", "linear", "arc")
 
 #: Per-cell time series that ``output.fields`` may select (position and image always stored).
 FIELDS = ("position", "image", "theta", "shape_a", "shape_b")
