@@ -2,11 +2,17 @@
 
 On each contour segment [phi_k, phi_k + h] of cell i the radial gap g(phi) of the
 contour relative to cell j (positive inside j) is interpolated by the cubic Hermite
-polynomial through g and dg/dphi at both ends.  Its roots, found with a bracketed
-Newton iteration run to convergence, bound the part of the segment inside j — also when
-neither end point is inside (a shallow contact no sample point sees).  The overlap
-integrands are then integrated exactly in phi over each inside piece with two-point
-Gauss-Legendre.  The error falls like K^-4 instead of the K^-1 of the point rule.
+polynomial through g and dg/dphi at both ends.  The cubic only *locates* crossings and
+shallow contacts (a dip of the gap above zero between two outside points, which no
+sample point sees); every crossing is then solved on the true gap by a bracketed Newton
+iteration started from the cubic's root, and every candidate dip is confirmed or
+rejected by the true gap at the cubic's extremum.  Segments whose cubic stays more than
+``DIP_MARGIN`` (scaled like the interpolation error, K^-4) away from zero are settled
+without any evaluation.
+
+On each inside piece the force and torque integrands are exact derivatives (of the
+contour point and of R^2/2), so their integrals are closed-form differences of the end
+points; the shape integrals (R, R cos n phi, R sin n phi) use two-point Gauss-Legendre.
 """
 
 from __future__ import annotations
@@ -15,7 +21,8 @@ import math
 
 from numba import njit
 
-from .fourier import modes6, multiples6
+from ..model.rates import DIP_MARGIN, ROOT_STEP
+from .fourier import fourier6, modes6, multiples6
 from .options import NJIT
 
 _G = 0.5 / math.sqrt(3.0)  # Gauss-Legendre nodes at 1/2 -+ _G on [0, 1]
@@ -33,7 +40,8 @@ def _hermite(t, g0, g1, m0, m1):
 
 @njit(**NJIT)
 def _root(tl, tr, pl, g0, g1, m0, m1):
-    """Root of the Hermite cubic in [tl, tr] where it changes sign; safeguarded Newton."""
+    """Root of the Hermite cubic in [tl, tr] where it changes sign; safeguarded Newton
+    (only a starting point for :func:`polish`)."""
     t = 0.5 * (tl + tr)
     for _ in range(60):
         p, dp = _hermite(t, g0, g1, m0, m1)
@@ -45,7 +53,7 @@ def _root(tl, tr, pl, g0, g1, m0, m1):
         tn = t - p / dp if step_ok else 0.5 * (tl + tr)
         if not (tl < tn < tr):
             tn = 0.5 * (tl + tr)
-        if abs(tn - t) < 1e-14 or tr - tl < 1e-14:
+        if abs(tn - t) < 1e-10 or tr - tl < 1e-10:  # a start for polish()
             return tn
         t = tn
     return t
@@ -98,121 +106,181 @@ def _cos_sin_small(d):
     return c, s
 
 
+
 @njit(inline="always", **NJIT)
-def _gauss_point6(cp, sp, wq, a0, c, s, R0, am, bm, acc, i):
-    """One Gauss point of :func:`_integrate` for M <= 6 (straight-line code)."""
-    a2, a3, a4, a5, a6 = am
-    b2, b3, b4, b5, b6 = bm
-    c2, c3, c4, c5, c6, s2, s3, s4, s5, s6 = multiples6(cp, sp)
-    r = R0 * (a0 + a2 * c2 + b2 * s2 + a3 * c3 + b3 * s3 + a4 * c4 + b4 * s4 + a5 * c5 + b5 * s5 + a6 * c6 + b6 * s6)
-    dr = R0 * (2.0 * (b2 * c2 - a2 * s2) + 3.0 * (b3 * c3 - a3 * s3) + 4.0 * (b4 * c4 - a4 * s4)
-               + 5.0 * (b5 * c5 - a5 * s5) + 6.0 * (b6 * c6 - a6 * s6))
-    ex = c * cp - s * sp
-    ey = s * cp + c * sp
-    wr = wq * r
-    acc[i, 0] += wq * (-dr * ey - r * ex)
-    acc[i, 1] += wq * (dr * ex - r * ey)
-    acc[i, 2] += wr * dr
-    acc[i, 3] += wr
-    M1 = acc.shape[1] // 2 - 2
-    acc[i, 4] += wr * c2
-    acc[i, 4 + M1] += wr * s2
-    if M1 > 1:
-        acc[i, 5] += wr * c3
-        acc[i, 5 + M1] += wr * s3
-    if M1 > 2:
-        acc[i, 6] += wr * c4
-        acc[i, 6 + M1] += wr * s4
-    if M1 > 3:
-        acc[i, 7] += wr * c5
-        acc[i, 7 + M1] += wr * s5
-    if M1 > 4:
-        acc[i, 8] += wr * c6
-        acc[i, 8 + M1] += wr * s6
+def _series(c, s, a, b, j):
+    """sum_n (a_n cos n psi + b_n sin n psi) of cell j and its psi-derivative."""
+    M1 = a.shape[1]
+    if M1 <= 5:
+        a2, a3, a4, a5, a6, b2, b3, b4, b5, b6 = modes6(a, b, j)
+        return fourier6(c, s, a2, a3, a4, a5, a6, b2, b3, b4, b5, b6)
+    cn = c
+    sn = s
+    r = 0.0
+    dr = 0.0
+    for m in range(M1):
+        t = cn * c - sn * s
+        sn = sn * c + cn * s
+        cn = t
+        r += a[j, m] * cn + b[j, m] * sn
+        dr += (m + 2.0) * (b[j, m] * cn - a[j, m] * sn)
+    return r, dr
+
+
+@njit(inline="always", **NJIT)
+def _angle(k, t, h, cphi, sphi):
+    """cos and sin of phi_k + t h."""
+    d = t * h
+    if h <= 0.25 * math.pi:
+        cd, sd = _cos_sin_small(d)
+    else:
+        cd = math.cos(d)
+        sd = math.sin(d)
+    return cphi[k] * cd - sphi[k] * sd, sphi[k] * cd + cphi[k] * sd
 
 
 @njit(**NJIT)
-def _integrate(i, k, t1, t2, h, a, b, geo, R0, cphi, sphi, acc):
-    """Add the integrals over phi in [phi_k + t1 h, phi_k + t2 h] of the overlap integrands.
+def true_gap(i, j, k, t, h, dx, dy, a, b, geo, R0, cphi, sphi):
+    """The gap of cell i's contour relative to cell j at phi = phi_k + t h.
 
-    ``acc[i]`` collects [force x, force y, torque, R, R cos n phi (M1), R sin n phi (M1)],
-    the continuum versions of the point sums in :func:`fcsweep.kernels.contour.cell_rates`.
+    Returns (g, h dg/dphi, x, y, R, h dx/dphi, h dy/dphi, h dR/dphi): the gap and its
+    scaled slope, the contour point relative to r_i, its radius, and their scaled
+    derivatives (used to move the point to a Newton-corrected root).
+    """
+    cp, sp = _angle(k, t, h, cphi, sphi)
+    ri, dri = _series(cp, sp, a, b, i)
+    r = R0 * (geo[i, 0] + ri)
+    dr = R0 * dri
+    ex = geo[i, 2] * cp - geo[i, 3] * sp
+    ey = geo[i, 3] * cp + geo[i, 2] * sp
+    x = r * ex
+    y = r * ey
+    tx = dr * ex - r * ey
+    ty = dr * ey + r * ex
+    ox = x - dx
+    oy = y - dy
+    dist = math.sqrt(ox * ox + oy * oy)
+    inv = 1.0 / max(dist, 1e-300)
+    cj = (ox * geo[j, 2] + oy * geo[j, 3]) * inv
+    sj = (oy * geo[j, 2] - ox * geo[j, 3]) * inv
+    rj, drj = _series(cj, sj, a, b, j)
+    g = R0 * (geo[j, 0] + rj) - dist
+    dpsi = (ox * ty - oy * tx) * inv * inv
+    dg = (R0 * drj * dpsi - (ox * tx + oy * ty) * inv) * h
+    return g, dg, x, y, r, tx * h, ty * h, dr * h
+
+
+@njit(**NJIT)
+def polish(t, tl, tr, left_inside, i, j, k, h, dx, dy, a, b, geo, R0, cphi, sphi):
+    """Root of the true gap in [tl, tr] (positive at tl iff ``left_inside``) by a
+    bracketed Newton iteration from t.
+
+    Stops when the Newton step is below ``ROOT_STEP`` (the root is then accurate to about
+    the step squared) and returns the root with the contour point and radius there,
+    moved from the last evaluation by the step (first order): (t, x, y, R).
+    """
+    x = 0.0
+    y = 0.0
+    r = 0.0
+    for _ in range(60):
+        g, dg, x, y, r, dx_, dy_, dr_ = true_gap(i, j, k, t, h, dx, dy, a, b, geo, R0, cphi, sphi)
+        if (g > 0.0) == left_inside:
+            tl = t
+        else:
+            tr = t
+        tn = t - g / dg if dg != 0.0 else 0.5 * (tl + tr)
+        if not (tl <= tn <= tr):
+            tn = 0.5 * (tl + tr)
+        step = tn - t
+        if abs(step) < ROOT_STEP or tr - tl < ROOT_STEP:
+            return tn, x + step * dx_, y + step * dy_, r + step * dr_
+        t = tn
+    return t, x, y, r
+
+
+@njit(**NJIT)
+def _piece(i, k, t1, t2, x1, y1, r1, x2, y2, r2, h, a, b, geo, R0, cphi, sphi, acc):
+    """Add the integrals over phi in [phi_k + t1 h, phi_k + t2 h], whose end points are
+    (x1, y1) and (x2, y2) with radii r1, r2, to ``acc[i]``.
+
+    Force: the integrand is dx/dphi turned by +90 degrees, so its integral is the chord
+    (x2 - x1) turned; torque: R R' = d(R^2/2)/dphi.  R, R cos n phi and R sin n phi:
+    two-point Gauss-Legendre.
     """
     M1 = a.shape[1]
-    half = 0.5 * (t2 - t1)
+    acc[i, 0] -= y2 - y1
+    acc[i, 1] += x2 - x1
+    acc[i, 2] += 0.5 * (r2 * r2 - r1 * r1)
+    w = 0.5 * (t2 - t1) * h
     mid = 0.5 * (t1 + t2)
-    w = half * h
-    c = geo[i, 2]
-    s = geo[i, 3]
+    half = 0.5 * (t2 - t1)
     for q in range(2):
-        d = (mid + (2 * q - 1) * _G * 2.0 * half) * h
-        if h <= 0.25 * math.pi:
-            cd, sd = _cos_sin_small(d)
-        else:
-            cd = math.cos(d)
-            sd = math.sin(d)
-        cp = cphi[k] * cd - sphi[k] * sd
-        sp = sphi[k] * cd + cphi[k] * sd
+        cp, sp = _angle(k, mid + (2 * q - 1) * 2.0 * _G * half, h, cphi, sphi)
         if M1 <= 5:
-            m6 = modes6(a, b, i)
-            am = (m6[0], m6[1], m6[2], m6[3], m6[4])
-            bm = (m6[5], m6[6], m6[7], m6[8], m6[9])
-            _gauss_point6(cp, sp, w, geo[i, 0], c, s, R0, am, bm, acc, i)
+            a2, a3, a4, a5, a6, b2, b3, b4, b5, b6 = modes6(a, b, i)
+            c2, c3, c4, c5, c6, s2, s3, s4, s5, s6 = multiples6(cp, sp)
+            r = R0 * (geo[i, 0] + a2 * c2 + b2 * s2 + a3 * c3 + b3 * s3 + a4 * c4 + b4 * s4 + a5 * c5
+                      + b5 * s5 + a6 * c6 + b6 * s6)
+            wr = w * r
+            acc[i, 3] += wr
+            acc[i, 4] += wr * c2
+            acc[i, 4 + M1] += wr * s2
+            if M1 > 1:
+                acc[i, 5] += wr * c3
+                acc[i, 5 + M1] += wr * s3
+            if M1 > 2:
+                acc[i, 6] += wr * c4
+                acc[i, 6 + M1] += wr * s4
+            if M1 > 3:
+                acc[i, 7] += wr * c5
+                acc[i, 7 + M1] += wr * s5
+            if M1 > 4:
+                acc[i, 8] += wr * c6
+                acc[i, 8 + M1] += wr * s6
             continue
-        cn = cp
-        sn = sp
-        r = geo[i, 0]
-        dr = 0.0
-        for m in range(M1):
-            tt = cn * cp - sn * sp
-            sn = sn * cp + cn * sp
-            cn = tt
-            r += a[i, m] * cn + b[i, m] * sn
-            dr += (m + 2.0) * (b[i, m] * cn - a[i, m] * sn)
-        r *= R0
-        dr *= R0
-        ex = c * cp - s * sp
-        ey = s * cp + c * sp
-        acc[i, 0] += w * (-dr * ey - r * ex)
-        acc[i, 1] += w * (dr * ex - r * ey)
-        acc[i, 2] += w * r * dr
-        acc[i, 3] += w * r
+        rr, _ = _series(cp, sp, a, b, i)
+        wr = w * R0 * (geo[i, 0] + rr)
+        acc[i, 3] += wr
         cn = cp
         sn = sp
         for m in range(M1):
             tt = cn * cp - sn * sp
             sn = sn * cp + cn * sp
             cn = tt
-            acc[i, 4 + m] += w * r * cn
-            acc[i, 4 + M1 + m] += w * r * sn
+            acc[i, 4 + m] += wr * cn
+            acc[i, 4 + M1 + m] += wr * sn
 
 
 @njit(**NJIT)
-def arc_pair(i, k0, nseg, a, b, geo, R0, cphi, sphi, tb, tid, acc):
-    """Integrate the overlap of one neighbour over the contour segments of cell i.
+def arc_pair(i, j, dx, dy, k0, nseg, a, b, geo, R, px, py, R0, cphi, sphi, tb, tid, acc):
+    """Integrate the overlap of neighbour j (at offset (dx, dy)) over the contour of cell i.
 
     ``tb[tid, 6, m]`` and ``tb[tid, 7, m]`` hold the gap and h * dg/dphi at window point m
     (contour index k0 + m, modulo K); segments m = 0 .. nseg - 1 join points m, m + 1.
-    Adds the arc integrals to ``acc[i]``.
+    ``R``, ``px``, ``py`` are the sampled radii and contour points of
+    :func:`fcsweep.kernels.contour.geometry`.  Adds the arc integrals to ``acc[i]``.
     """
     K = cphi.shape[0]
     h = 2.0 * math.pi / K
+    eps = DIP_MARGIN * R0 * (40.0 / K) ** 4
     for m in range(nseg):
-        k = (k0 + m) % K
         g0 = tb[tid, 6, m]
         g1 = tb[tid, 6, m + 1]
         m0 = tb[tid, 7, m]
         m1 = tb[tid, 7, m + 1]
         in0 = g0 > 0.0
         in1 = g1 > 0.0
+        k = (k0 + m) % K
+        k1 = k + 1 if k + 1 < K else 0
         if in0 != in1:
             t = _root(0.0, 1.0, g0, g0, g1, m0, m1)
+            t, x, y, r = polish(t, 0.0, 1.0, in0, i, j, k, h, dx, dy, a, b, geo, R0, cphi, sphi)
             if in0:
-                _integrate(i, k, 0.0, t, h, a, b, geo, R0, cphi, sphi, acc)
+                _piece(i, k, 0.0, t, px[i, k], py[i, k], R[i, k], x, y, r, h, a, b, geo, R0, cphi, sphi, acc)
             else:
-                _integrate(i, k, t, 1.0, h, a, b, geo, R0, cphi, sphi, acc)
+                _piece(i, k, t, 1.0, x, y, r, px[i, k1], py[i, k1], R[i, k1], h, a, b, geo, R0, cphi, sphi, acc)
             continue
-        # same sign at both ends: the cubic may still cross zero twice in between.  Write
+        # Same sign at both ends: the cubic may still cross zero twice in between.  Write
         # p(t) = (1-t) g0 + t g1 + t(1-t) [(1-t) A - t B] with A = m0 - (g1-g0),
         # B = m1 - (g1-g0); the bracket lies between A and -B and t(1-t) <= 1/4, so
         # p <= max(g0, g1) + max(A, -B, 0)/4 and p >= min(g0, g1) - max(-A, B, 0)/4.
@@ -221,27 +289,45 @@ def arc_pair(i, k0, nseg, a, b, geo, R0, cphi, sphi, tb, tid, acc):
         A = m0 - dg
         B = m1 - dg
         if in0:
-            if min(g0, g1) - 0.25 * max(-A, B, 0.0) > 0.0:
-                _integrate(i, k, 0.0, 1.0, h, a, b, geo, R0, cphi, sphi, acc)
+            if min(g0, g1) - 0.25 * max(-A, B, 0.0) > eps:
+                _piece(i, k, 0.0, 1.0, px[i, k], py[i, k], R[i, k], px[i, k1], py[i, k1], R[i, k1],
+                       h, a, b, geo, R0, cphi, sphi, acc)
                 continue
-        elif max(g0, g1) + 0.25 * max(A, -B, 0.0) <= 0.0:
+        elif max(g0, g1) + 0.25 * max(A, -B, 0.0) <= -eps:
             continue
+        # the cubic's extremum towards the other side (its maximum if outside)
         n, t1, t2 = _critical_points(g0, g1, m0, m1)
         tc = -1.0
+        pc = 0.0
         for q in range(n):
             tq = t1 if q == 0 else t2
             p, _ = _hermite(tq, g0, g1, m0, m1)
-            if (p > 0.0) != in0:
+            if tc < 0.0 or (p < pc if in0 else p > pc):
                 tc = tq
-                break
-        if tc < 0.0:
+                pc = p
+        near = tc >= 0.0 and (pc < eps if in0 else pc > -eps)
+        crossed = False
+        gc = 0.0
+        if near:
+            gc = true_gap(i, j, k, tc, h, dx, dy, a, b, geo, R0, cphi, sphi)[0]
+            crossed = (gc > 0.0) != in0
+        if not crossed:
             if in0:
-                _integrate(i, k, 0.0, 1.0, h, a, b, geo, R0, cphi, sphi, acc)
+                _piece(i, k, 0.0, 1.0, px[i, k], py[i, k], R[i, k], px[i, k1], py[i, k1], R[i, k1],
+                       h, a, b, geo, R0, cphi, sphi, acc)
             continue
-        ta = _root(0.0, tc, g0, g0, g1, m0, m1)
-        tb_ = _root(tc, 1.0, -g0 if g0 != 0.0 else 1.0, g0, g1, m0, m1)
-        if in0:
-            _integrate(i, k, 0.0, ta, h, a, b, geo, R0, cphi, sphi, acc)
-            _integrate(i, k, tb_, 1.0, h, a, b, geo, R0, cphi, sphi, acc)
+        # two crossings, in [0, tc] and [tc, 1]: start from the cubic's roots where the
+        # cubic crosses too, else from the secant
+        if (pc > 0.0) != in0:
+            sa = _root(0.0, tc, g0, g0, g1, m0, m1)
+            sb = _root(tc, 1.0, pc, g0, g1, m0, m1)
         else:
-            _integrate(i, k, ta, tb_, h, a, b, geo, R0, cphi, sphi, acc)
+            sa = tc * g0 / (g0 - gc)
+            sb = tc + (1.0 - tc) * gc / (gc - g1)
+        ta, xa, ya, ra = polish(sa, 0.0, tc, in0, i, j, k, h, dx, dy, a, b, geo, R0, cphi, sphi)
+        tb_, xb, yb, rb = polish(sb, tc, 1.0, not in0, i, j, k, h, dx, dy, a, b, geo, R0, cphi, sphi)
+        if in0:
+            _piece(i, k, 0.0, ta, px[i, k], py[i, k], R[i, k], xa, ya, ra, h, a, b, geo, R0, cphi, sphi, acc)
+            _piece(i, k, tb_, 1.0, xb, yb, rb, px[i, k1], py[i, k1], R[i, k1], h, a, b, geo, R0, cphi, sphi, acc)
+        else:
+            _piece(i, k, ta, tb_, xa, ya, ra, xb, yb, rb, h, a, b, geo, R0, cphi, sphi, acc)

@@ -428,7 +428,7 @@ def pair_linear(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, 
 def pair_arc(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tb, tid, acc):
     """Contact-arc rule: exact arc integrals into acc[i] (see :mod:`.arcs`)."""
     k0, nseg = gap_window(i, j, dx, dy, True, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tb, tid)
-    arc_pair(i, k0, nseg, a, b, geo, R0, cphi, sphi, tb, tid, acc)
+    arc_pair(i, j, dx, dy, k0, nseg, a, b, geo, R, px, py, R0, cphi, sphi, tb, tid, acc)
 
 
 @njit(inline="always", **NJIT)

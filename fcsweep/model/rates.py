@@ -161,22 +161,119 @@ def rates_from_occupancy(o, theta, a, b, *, eta, v0, R0=1.0, mu_theta=1.0, mu_sh
     return {"dpos": dpos, "dtheta": dtheta, "da": da, "db": db}
 
 
+#: Contact-arc rule: a Newton step on the true gap below this (in units of the segment)
+#: ends the root iteration.
+ROOT_STEP = 1e-3
+#: Contact-arc rule: Hermite cubics farther than this from zero (R0 units at K = 40,
+#: scaled by (40/K)^4 like the interpolation error) are trusted without evaluating the
+#: true gap; nearer ones are confirmed on it.
+DIP_MARGIN = 2e-3
+
+
 def _hermite(t, g0, g1, m0, m1):
     """Cubic Hermite interpolant on [0, 1] (slopes scaled by the segment length)."""
     return ((2 * t**3 - 3 * t**2 + 1) * g0 + (t**3 - 2 * t**2 + t) * m0 + (-2 * t**3 + 3 * t**2) * g1
             + (t**3 - t**2) * m1)
 
 
-def _inside_pieces(g0, g1, m0, m1):
-    """Sub-intervals of [0, 1] where the Hermite cubic of the gap is positive."""
-    # power-basis coefficients of p(t) = c3 t^3 + c2 t^2 + c1 t + c0
+def _cubic_roots(g0, g1, m0, m1, lo, hi):
+    """Real roots of the Hermite cubic in (lo, hi), ascending."""
     c3 = 2 * g0 + m0 - 2 * g1 + m1
     c2 = -3 * g0 - 2 * m0 + 3 * g1 - m1
     roots = np.roots([c3, c2, m0, g0]) if abs(c3) + abs(c2) + abs(m0) > 0 else np.array([])
-    cuts = sorted(r.real for r in roots if abs(r.imag) < 1e-12 and 0.0 < r.real < 1.0)
-    edges = [0.0, *cuts, 1.0]
-    return [(lo, hi) for lo, hi in zip(edges[:-1], edges[1:])
-            if hi > lo and _hermite(0.5 * (lo + hi), g0, g1, m0, m1) > 0]
+    return sorted(r.real for r in roots if abs(r.imag) < 1e-9 and lo < r.real < hi)
+
+
+def _cubic_extremum(g0, g1, m0, m1, inside):
+    """Stationary point of the Hermite cubic in (0, 1) nearest the other side of zero
+    (its smallest value if ``inside`` else its largest), or None."""
+    c3 = 2 * g0 + m0 - 2 * g1 + m1
+    c2 = -3 * g0 - 2 * m0 + 3 * g1 - m1
+    ts = [r.real for r in np.roots([3 * c3, 2 * c2, m0]) if abs(r.imag) < 1e-12 and 0.0 < r.real < 1.0] \
+        if abs(c3) + abs(c2) > 0 else []
+    if not ts:
+        return None
+    vals = [_hermite(t, g0, g1, m0, m1) for t in ts]
+    k = int(np.argmin(vals) if inside else np.argmax(vals))
+    return ts[k], vals[k]
+
+
+class _Contour:
+    """Cell i's contour and the gap to one neighbour j, evaluated anywhere on the contour."""
+
+    def __init__(self, theta_i, a_i, b_i, rij, theta_j, a_j, b_j, R0):
+        self.ti, self.ai, self.bi, self.rij = theta_i, a_i, b_i, rij
+        self.tj, self.aj, self.bj, self.R0 = theta_j, a_j, b_j, R0
+
+    def point(self, phi):
+        """Contour point x(phi) - r_i, its tangent dx/dphi, R and R'."""
+        R, dR = radius(np.atleast_1d(phi), self.ai, self.bi, self.R0)
+        lab = self.ti + np.atleast_1d(phi)
+        e = np.stack([np.cos(lab), np.sin(lab)], axis=-1)
+        ep = np.stack([-np.sin(lab), np.cos(lab)], axis=-1)
+        return R[:, None] * e, dR[:, None] * e + R[:, None] * ep, R, dR
+
+    def gap(self, phi):
+        """Radial gap g = R_j(psi) - |d| and dg/dphi at contour angles ``phi``."""
+        x, tan, R, _ = self.point(phi)
+        d = x - self.rij
+        dist = np.hypot(d[:, 0], d[:, 1])
+        Rj, dRj = radius(np.arctan2(d[:, 1], d[:, 0]) - self.tj, self.aj, self.bj, self.R0)
+        dpsi = (d[:, 0] * tan[:, 1] - d[:, 1] * tan[:, 0]) / dist**2
+        return Rj - dist, dRj * dpsi - (d * tan).sum(axis=1) / dist, x, tan, R
+
+    def root(self, phi_k, h, t, tl, tr, left_inside):
+        """Crossing of the contour with j's in phi_k + h [tl, tr] (gap > 0 at tl iff
+        ``left_inside``): bracketed Newton from t.  Returns (t, x, R) there."""
+        for _ in range(60):
+            g, dg, x, tan, R = self.gap(phi_k + h * t)
+            _, _, _, dR = self.point(phi_k + h * t)
+            if (g[0] > 0) == left_inside:
+                tl = t
+            else:
+                tr = t
+            tn = t - g[0] / (h * dg[0]) if dg[0] != 0 else 0.5 * (tl + tr)
+            if not tl <= tn <= tr:
+                tn = 0.5 * (tl + tr)
+            step = tn - t
+            if abs(step) < ROOT_STEP or tr - tl < ROOT_STEP:
+                return tn, x[0] + step * h * tan[0], R[0] + step * h * dR[0]
+            t = tn
+        return t, x[0], R[0]
+
+
+def _arc_pieces(c, phi_k, h, g0, g1, m0, m1, end0, end1, eps):
+    """Inside pieces [(t1, x1, R1, t2, x2, R2)] of the segment phi_k + h [0, 1] of the
+    contour ``c`` relative to its neighbour (see :func:`arc_integrals`)."""
+    in0, in1 = g0 > 0, g1 > 0
+    if in0 != in1:
+        t0 = _cubic_roots(g0, g1, m0, m1, 0.0, 1.0)
+        t, x, R = c.root(phi_k, h, t0[0] if t0 else 0.5, 0.0, 1.0, in0)
+        return [(0.0, *end0, t, x, R)] if in0 else [(t, x, R, 1.0, *end1)]
+    full = [(0.0, *end0, 1.0, *end1)] if in0 else []
+    A, B = m0 - (g1 - g0), m1 - (g1 - g0)
+    if in0 and min(g0, g1) - 0.25 * max(-A, B, 0.0) > eps:
+        return full
+    if not in0 and max(g0, g1) + 0.25 * max(A, -B, 0.0) <= -eps:
+        return full
+    ext = _cubic_extremum(g0, g1, m0, m1, in0)
+    if ext is None or (ext[1] >= eps if in0 else ext[1] <= -eps):
+        return full
+    tc, pc = ext
+    gc = c.gap(phi_k + h * tc)[0][0]
+    if (gc > 0) == in0:
+        return full
+    if (pc > 0) != in0:
+        sa = _cubic_roots(g0, g1, m0, m1, 0.0, tc)[-1]
+        sb = _cubic_roots(g0, g1, m0, m1, tc, 1.0)[0]
+    else:
+        sa = tc * g0 / (g0 - gc)
+        sb = tc + (1.0 - tc) * gc / (gc - g1)
+    ta, xa, Ra = c.root(phi_k, h, sa, 0.0, tc, in0)
+    tb, xb, Rb = c.root(phi_k, h, sb, tc, 1.0, not in0)
+    if in0:
+        return [(0.0, *end0, ta, xa, Ra), (tb, xb, Rb, 1.0, *end1)]
+    return [(ta, xa, Ra, tb, xb, Rb)]
 
 
 def arc_integrals(pos, theta, a, b, *, box=None, R0=1.0, contour_points=40):
@@ -184,24 +281,23 @@ def arc_integrals(pos, theta, a, b, *, box=None, R0=1.0, contour_points=40):
 
     For every contour segment of cell i the radial gap g to each neighbour j and its
     derivative dg/dphi = R_j'(psi) dpsi/dphi - d.t/|d| (t = dx_i/dphi) at the two ends
-    define a cubic Hermite interpolant; where it is positive the integrands are integrated
-    with two-point Gauss-Legendre.  Returns (N, 4 + 2(M-1)) as in :func:`rates_from_occupancy`.
+    define a cubic Hermite interpolant.  It locates the crossings of the two contours
+    (solved on the true gap by bracketed Newton) and shallow contacts between sample
+    points (confirmed on the true gap at the cubic's extremum).  On each inside piece the
+    force and torque integrals are exact end-point differences (the chord turned by 90
+    degrees; R^2/2), the shape integrals two-point Gauss-Legendre.  Returns
+    (N, 4 + 2(M-1)) as in :func:`rates_from_occupancy`.
     """
     N, M1 = a.shape
     K = int(contour_points)
     h = 2.0 * np.pi / K
+    eps = DIP_MARGIN * R0 * (40.0 / K) ** 4
     phi = h * np.arange(K + 1)
     n = mode_numbers(M1)
     Rb = R0 * (a0_of(a, b) + amplitude_sum(a, b))
     out = np.zeros((N, 4 + 2 * M1))
     nodes = 0.5 + np.array([-0.5, 0.5]) / np.sqrt(3.0)
     for i in range(N):
-        R, dR = radius(phi, a[i], b[i], R0)
-        lab = theta[i] + phi
-        e = np.stack([np.cos(lab), np.sin(lab)], axis=-1)
-        ep = np.stack([-np.sin(lab), np.cos(lab)], axis=-1)
-        x = R[:, None] * e
-        tan = dR[:, None] * e + R[:, None] * ep
         for j in range(N):
             for shift in _images(box):
                 if i == j and not shift.any():
@@ -209,23 +305,19 @@ def arc_integrals(pos, theta, a, b, *, box=None, R0=1.0, contour_points=40):
                 rij = pos[j] + shift - pos[i]
                 if np.hypot(*rij) >= Rb[i] + Rb[j]:
                     continue
-                d = x - rij
-                dist = np.hypot(d[:, 0], d[:, 1])
-                psi = np.arctan2(d[:, 1], d[:, 0]) - theta[j]
-                Rj, dRj = radius(psi, a[j], b[j], R0)
-                g = Rj - dist
-                dpsi = (d[:, 0] * tan[:, 1] - d[:, 1] * tan[:, 0]) / dist**2
-                slope = h * (dRj * dpsi - (d * tan).sum(axis=1) / dist)
+                c = _Contour(theta[i], a[i], b[i], rij, theta[j], a[j], b[j], R0)
+                g, dg, x, _, R = c.gap(phi)
+                slope = h * dg
                 for k in range(K):
-                    for lo, hi in _inside_pieces(g[k], g[k + 1], slope[k], slope[k + 1]):
-                        ph = phi[k] + h * (lo + (hi - lo) * nodes)
-                        w = 0.5 * (hi - lo) * h
-                        Rg, dRg = radius(ph, a[i], b[i], R0)
-                        lg = theta[i] + ph
-                        ex, ey = np.cos(lg), np.sin(lg)
-                        out[i, 0] += w * np.sum(-dRg * ey - Rg * ex)
-                        out[i, 1] += w * np.sum(dRg * ex - Rg * ey)
-                        out[i, 2] += w * np.sum(Rg * dRg)
+                    pieces = _arc_pieces(c, phi[k], h, g[k], g[k + 1], slope[k], slope[k + 1],
+                                         (x[k], R[k]), (x[k + 1], R[k + 1]), eps)
+                    for t1, x1, R1, t2, x2, R2 in pieces:
+                        out[i, 0] -= x2[1] - x1[1]
+                        out[i, 1] += x2[0] - x1[0]
+                        out[i, 2] += 0.5 * (R2 * R2 - R1 * R1)
+                        ph = phi[k] + h * (t1 + (t2 - t1) * nodes)
+                        w = 0.5 * (t2 - t1) * h
+                        Rg, _ = radius(ph, a[i], b[i], R0)
                         out[i, 3] += w * np.sum(Rg)
                         out[i, 4:4 + M1] += w * (np.cos(np.multiply.outer(n, ph)) @ Rg)
                         out[i, 4 + M1:] += w * (np.sin(np.multiply.outer(n, ph)) @ Rg)
