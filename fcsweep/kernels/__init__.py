@@ -2,8 +2,10 @@
 
 Compiled code is cached on disk (``cache=True``).  Numba invalidates a cache entry only
 when the file of that very function changes, not when a function it inlines from another
-module does; a stale entry can then crash.  The cache therefore lives in a directory
-named after a hash of all kernel sources:
+module does, nor when a module-level constant it reads from another module changes (the
+contact-arc constants live in :mod:`fcsweep.model.rates`); a stale entry can then crash
+or silently compute with old constants.  The cache therefore lives in a directory named
+after a hash of all kernel and model sources:
 
     $NUMBA_CACHE_DIR/fcsweep-<hash>   if NUMBA_CACHE_DIR is set (read-only installs,
                                        clusters: point it at a writable scratch path)
@@ -22,8 +24,8 @@ import numba.core.config as _nb_config
 def _configure_cache() -> str:
     here = Path(__file__).parent
     h = hashlib.sha256()
-    for f in sorted(here.glob("*.py")):
-        h.update(f.name.encode())
+    for f in sorted(here.glob("*.py")) + sorted((here.parent / "model").glob("*.py")):
+        h.update(f"{f.parent.name}/{f.name}".encode())
         h.update(f.read_bytes())
     tag = h.hexdigest()[:12]
     base = os.environ.get("NUMBA_CACHE_DIR")

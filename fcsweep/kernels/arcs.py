@@ -5,14 +5,25 @@ contour relative to cell j (positive inside j) is interpolated by the cubic Herm
 polynomial through g and dg/dphi at both ends.  The cubic only *locates* crossings and
 shallow contacts (a dip of the gap above zero between two outside points, which no
 sample point sees); every crossing is then solved on the true gap by a bracketed Newton
-iteration started from the cubic's root, and every candidate dip is confirmed or
+iteration started from the cubic's root (usually one evaluation: the iteration ends
+when the Newton step is below ``ROOT_STEP`` of the segment, and the cubic's root is
+typically within 1e-4), and every candidate dip is confirmed or
 rejected by the true gap at the cubic's extremum.  Segments whose cubic stays more than
 ``DIP_MARGIN`` (scaled like the interpolation error, K^-4) away from zero are settled
 without any evaluation.
 
 On each inside piece the force and torque integrands are exact derivatives (of the
 contour point and of R^2/2), so their integrals are closed-form differences of the end
-points; the shape integrals (R, R cos n phi, R sin n phi) use two-point Gauss-Legendre.
+points; the shape integrals (R, R cos n phi, R sin n phi) use two-point Gauss-Legendre,
+with the nodes of all pieces of a pair summed in one pass.
+
+Every helper that returns floating-point values is inlined into :func:`arc_pair` (numba
+IR inlining), which is one compiled function called per pair.  With the helpers as
+separate functions, code loaded from numba's on-disk cache rounded differently from a
+fresh compilation (LLVM fuses operations across a call boundary only when it can see
+both sides), so trajectories depended on whether the cache was warm.  Inlining
+:func:`arc_pair` into the parallel pair loop as well would save about 130 ns per pair
+of call overhead but took ten minutes to compile.
 """
 
 from __future__ import annotations
@@ -28,7 +39,7 @@ from .options import NJIT
 _G = 0.5 / math.sqrt(3.0)  # Gauss-Legendre nodes at 1/2 -+ _G on [0, 1]
 
 
-@njit(**NJIT)
+@njit(inline="always", **NJIT)
 def _hermite(t, g0, g1, m0, m1):
     """Cubic Hermite value and derivative on [0, 1] (slopes already scaled by h)."""
     t2 = t * t
@@ -38,11 +49,14 @@ def _hermite(t, g0, g1, m0, m1):
     return p, dp
 
 
-@njit(**NJIT)
+@njit(inline="always", **NJIT)
 def _root(tl, tr, pl, g0, g1, m0, m1):
     """Root of the Hermite cubic in [tl, tr] where it changes sign; safeguarded Newton
-    (only a starting point for :func:`polish`)."""
-    t = 0.5 * (tl + tr)
+    from the secant (only a starting point for :func:`polish`)."""
+    pr, _ = _hermite(tr, g0, g1, m0, m1)
+    t = tl + (tr - tl) * pl / (pl - pr) if pl != pr else 0.5 * (tl + tr)
+    if not (tl < t < tr):
+        t = 0.5 * (tl + tr)
     for _ in range(60):
         p, dp = _hermite(t, g0, g1, m0, m1)
         if (p > 0.0) == (pl > 0.0):
@@ -59,7 +73,7 @@ def _root(tl, tr, pl, g0, g1, m0, m1):
     return t
 
 
-@njit(**NJIT)
+@njit(inline="always", **NJIT)
 def _critical_points(g0, g1, m0, m1):
     """Stationary points of the Hermite cubic in (0, 1): returns (count, t1, t2)."""
     # p'(t) = A t^2 + B t + C
@@ -139,7 +153,7 @@ def _angle(k, t, h, cphi, sphi):
     return cphi[k] * cd - sphi[k] * sd, sphi[k] * cd + cphi[k] * sd
 
 
-@njit(**NJIT)
+@njit(inline="always", **NJIT)
 def true_gap(i, j, k, t, h, dx, dy, a, b, geo, R0, cphi, sphi):
     """The gap of cell i's contour relative to cell j at phi = phi_k + t h.
 
@@ -170,7 +184,7 @@ def true_gap(i, j, k, t, h, dx, dy, a, b, geo, R0, cphi, sphi):
     return g, dg, x, y, r, tx * h, ty * h, dr * h
 
 
-@njit(**NJIT)
+@njit(inline="always", **NJIT)
 def polish(t, tl, tr, left_inside, i, j, k, h, dx, dy, a, b, geo, R0, cphi, sphi):
     """Root of the true gap in [tl, tr] (positive at tl iff ``left_inside``) by a
     bracketed Newton iteration from t.
@@ -198,48 +212,65 @@ def polish(t, tl, tr, left_inside, i, j, k, h, dx, dy, a, b, geo, R0, cphi, sphi
     return t, x, y, r
 
 
-@njit(**NJIT)
-def _piece(i, k, t1, t2, x1, y1, r1, x2, y2, r2, h, a, b, geo, R0, cphi, sphi, acc):
-    """Add the integrals over phi in [phi_k + t1 h, phi_k + t2 h], whose end points are
-    (x1, y1) and (x2, y2) with radii r1, r2, to ``acc[i]``.
+@njit(inline="always", **NJIT)
+def _piece(k, t1, t2, x1, y1, r1, x2, y2, r2, h, cphi, sphi, tb, tid, nq):
+    """One inside piece phi in [phi_k + t1 h, phi_k + t2 h] with end points (x1, y1),
+    (x2, y2) and radii r1, r2.
 
-    Force: the integrand is dx/dphi turned by +90 degrees, so its integral is the chord
-    (x2 - x1) turned; torque: R R' = d(R^2/2)/dphi.  R, R cos n phi and R sin n phi:
-    two-point Gauss-Legendre.
+    Returns its force and torque integrals — the force integrand is dx/dphi turned by
+    +90 degrees, so its integral is the chord (x2 - x1) turned; the torque integrand
+    R R' is d(R^2/2)/dphi — and stores its two Gauss-Legendre nodes (cos, sin, weight)
+    in rows 0-2 of ``tb[tid]`` from column ``nq``: returns (fx, fy, torque, nq + 2).
     """
-    M1 = a.shape[1]
-    acc[i, 0] -= y2 - y1
-    acc[i, 1] += x2 - x1
-    acc[i, 2] += 0.5 * (r2 * r2 - r1 * r1)
     w = 0.5 * (t2 - t1) * h
     mid = 0.5 * (t1 + t2)
     half = 0.5 * (t2 - t1)
     for q in range(2):
         cp, sp = _angle(k, mid + (2 * q - 1) * 2.0 * _G * half, h, cphi, sphi)
-        if M1 <= 5:
-            a2, a3, a4, a5, a6, b2, b3, b4, b5, b6 = modes6(a, b, i)
-            c2, c3, c4, c5, c6, s2, s3, s4, s5, s6 = multiples6(cp, sp)
-            r = R0 * (geo[i, 0] + a2 * c2 + b2 * s2 + a3 * c3 + b3 * s3 + a4 * c4 + b4 * s4 + a5 * c5
-                      + b5 * s5 + a6 * c6 + b6 * s6)
-            wr = w * r
-            acc[i, 3] += wr
-            acc[i, 4] += wr * c2
-            acc[i, 4 + M1] += wr * s2
-            if M1 > 1:
-                acc[i, 5] += wr * c3
-                acc[i, 5 + M1] += wr * s3
-            if M1 > 2:
-                acc[i, 6] += wr * c4
-                acc[i, 6 + M1] += wr * s4
-            if M1 > 3:
-                acc[i, 7] += wr * c5
-                acc[i, 7 + M1] += wr * s5
-            if M1 > 4:
-                acc[i, 8] += wr * c6
-                acc[i, 8 + M1] += wr * s6
-            continue
+        tb[tid, 0, nq + q] = cp
+        tb[tid, 1, nq + q] = sp
+        tb[tid, 2, nq + q] = w
+    return y1 - y2, x2 - x1, 0.5 * (r2 * r2 - r1 * r1), nq + 2
+
+
+@njit(**NJIT)
+def _shape_integrals(i, nq, a, b, geo, R0, tb, tid, acc):
+    """Add the Gauss sums of R, R cos n phi and R sin n phi over the ``nq`` nodes stored
+    by :func:`_piece` in ``tb[tid]`` to ``acc[i, 3:]``."""
+    M1 = a.shape[1]
+    if M1 <= 5:
+        a2, a3, a4, a5, a6, b2, b3, b4, b5, b6 = modes6(a, b, i)
+        a0 = geo[i, 0]
+        u = 0.0
+        uc2 = uc3 = uc4 = uc5 = uc6 = 0.0
+        us2 = us3 = us4 = us5 = us6 = 0.0
+        for q in range(nq):
+            c2, c3, c4, c5, c6, s2, s3, s4, s5, s6 = multiples6(tb[tid, 0, q], tb[tid, 1, q])
+            wr = tb[tid, 2, q] * R0 * (a0 + a2 * c2 + b2 * s2 + a3 * c3 + b3 * s3 + a4 * c4 + b4 * s4
+                                       + a5 * c5 + b5 * s5 + a6 * c6 + b6 * s6)
+            u += wr
+            uc2 += wr * c2
+            uc3 += wr * c3
+            uc4 += wr * c4
+            uc5 += wr * c5
+            uc6 += wr * c6
+            us2 += wr * s2
+            us3 += wr * s3
+            us4 += wr * s4
+            us5 += wr * s5
+            us6 += wr * s6
+        acc[i, 3] += u
+        uc = (uc2, uc3, uc4, uc5, uc6)
+        us = (us2, us3, us4, us5, us6)
+        for m in range(M1):
+            acc[i, 4 + m] += uc[m]
+            acc[i, 4 + M1 + m] += us[m]
+        return
+    for q in range(nq):
+        cp = tb[tid, 0, q]
+        sp = tb[tid, 1, q]
         rr, _ = _series(cp, sp, a, b, i)
-        wr = w * R0 * (geo[i, 0] + rr)
+        wr = tb[tid, 2, q] * R0 * (geo[i, 0] + rr)
         acc[i, 3] += wr
         cn = cp
         sn = sp
@@ -263,71 +294,97 @@ def arc_pair(i, j, dx, dy, k0, nseg, a, b, geo, R, px, py, R0, cphi, sphi, tb, t
     K = cphi.shape[0]
     h = 2.0 * math.pi / K
     eps = DIP_MARGIN * R0 * (40.0 / K) ** 4
+    # On segment m write the cubic as p(t) = (1-t) g0 + t g1 + t(1-t) [(1-t) A - t B] with
+    # A = m0 - (g1-g0), B = m1 - (g1-g0); the bracket lies between A and -B and
+    # t(1-t) <= 1/4, so p <= max(g0, g1) + max(A, -B, 0)/4 and
+    # p >= min(g0, g1) - max(-A, B, 0)/4.  Most pairs in a dense packing come close
+    # without touching: one branch-free pass over the upper bound settles them.
+    top = -1e300
+    for m in range(nseg):
+        g0 = tb[tid, 6, m]
+        g1 = tb[tid, 6, m + 1]
+        dg = g1 - g0
+        top = max(top, max(g0, g1) + 0.25 * max(tb[tid, 7, m] - dg, dg - tb[tid, 7, m + 1], 0.0))
+    if top <= -eps:
+        return
+    fx = 0.0
+    fy = 0.0
+    tq = 0.0
+    nq = 0
     for m in range(nseg):
         g0 = tb[tid, 6, m]
         g1 = tb[tid, 6, m + 1]
         m0 = tb[tid, 7, m]
         m1 = tb[tid, 7, m + 1]
+        A = m0 - (g1 - g0)
+        B = m1 - (g1 - g0)
+        if max(g0, g1) + 0.25 * max(A, -B, 0.0) <= -eps:
+            continue  # the cubic stays well outside
         in0 = g0 > 0.0
         in1 = g1 > 0.0
         k = (k0 + m) % K
         k1 = k + 1 if k + 1 < K else 0
+        # the inside piece(s) [ta, tb] (up to two) of the segment, with end points
+        ta = 0.0
+        xa = px[i, k]
+        ya = py[i, k]
+        ra = R[i, k]
+        tb_ = 1.0
+        xb = px[i, k1]
+        yb = py[i, k1]
+        rb = R[i, k1]
         if in0 != in1:
             t = _root(0.0, 1.0, g0, g0, g1, m0, m1)
             t, x, y, r = polish(t, 0.0, 1.0, in0, i, j, k, h, dx, dy, a, b, geo, R0, cphi, sphi)
             if in0:
-                _piece(i, k, 0.0, t, px[i, k], py[i, k], R[i, k], x, y, r, h, a, b, geo, R0, cphi, sphi, acc)
+                tb_, xb, yb, rb = t, x, y, r
             else:
-                _piece(i, k, t, 1.0, x, y, r, px[i, k1], py[i, k1], R[i, k1], h, a, b, geo, R0, cphi, sphi, acc)
-            continue
-        # Same sign at both ends: the cubic may still cross zero twice in between.  Write
-        # p(t) = (1-t) g0 + t g1 + t(1-t) [(1-t) A - t B] with A = m0 - (g1-g0),
-        # B = m1 - (g1-g0); the bracket lies between A and -B and t(1-t) <= 1/4, so
-        # p <= max(g0, g1) + max(A, -B, 0)/4 and p >= min(g0, g1) - max(-A, B, 0)/4.
-        # Most segments are settled by these bounds without solving for stationary points.
-        dg = g1 - g0
-        A = m0 - dg
-        B = m1 - dg
-        if in0:
-            if min(g0, g1) - 0.25 * max(-A, B, 0.0) > eps:
-                _piece(i, k, 0.0, 1.0, px[i, k], py[i, k], R[i, k], px[i, k1], py[i, k1], R[i, k1],
-                       h, a, b, geo, R0, cphi, sphi, acc)
+                ta, xa, ya, ra = t, x, y, r
+        elif not (in0 and min(g0, g1) - 0.25 * max(-A, B, 0.0) > eps):
+            # same sign at both ends and the cubic comes near zero: check the true gap at
+            # the cubic's extremum towards the other side
+            n, t1, t2 = _critical_points(g0, g1, m0, m1)
+            tc = -1.0
+            pc = 0.0
+            for q in range(n):
+                tq_ = t1 if q == 0 else t2
+                p, _ = _hermite(tq_, g0, g1, m0, m1)
+                if tc < 0.0 or (p < pc if in0 else p > pc):
+                    tc = tq_
+                    pc = p
+            crossed = False
+            gc = 0.0
+            if tc >= 0.0 and (pc < eps if in0 else pc > -eps):
+                gc = true_gap(i, j, k, tc, h, dx, dy, a, b, geo, R0, cphi, sphi)[0]
+                crossed = (gc > 0.0) != in0
+            if not crossed and not in0:
                 continue
-        elif max(g0, g1) + 0.25 * max(A, -B, 0.0) <= -eps:
-            continue
-        # the cubic's extremum towards the other side (its maximum if outside)
-        n, t1, t2 = _critical_points(g0, g1, m0, m1)
-        tc = -1.0
-        pc = 0.0
-        for q in range(n):
-            tq = t1 if q == 0 else t2
-            p, _ = _hermite(tq, g0, g1, m0, m1)
-            if tc < 0.0 or (p < pc if in0 else p > pc):
-                tc = tq
-                pc = p
-        near = tc >= 0.0 and (pc < eps if in0 else pc > -eps)
-        crossed = False
-        gc = 0.0
-        if near:
-            gc = true_gap(i, j, k, tc, h, dx, dy, a, b, geo, R0, cphi, sphi)[0]
-            crossed = (gc > 0.0) != in0
-        if not crossed:
-            if in0:
-                _piece(i, k, 0.0, 1.0, px[i, k], py[i, k], R[i, k], px[i, k1], py[i, k1], R[i, k1],
-                       h, a, b, geo, R0, cphi, sphi, acc)
-            continue
-        # two crossings, in [0, tc] and [tc, 1]: start from the cubic's roots where the
-        # cubic crosses too, else from the secant
-        if (pc > 0.0) != in0:
-            sa = _root(0.0, tc, g0, g0, g1, m0, m1)
-            sb = _root(tc, 1.0, pc, g0, g1, m0, m1)
-        else:
-            sa = tc * g0 / (g0 - gc)
-            sb = tc + (1.0 - tc) * gc / (gc - g1)
-        ta, xa, ya, ra = polish(sa, 0.0, tc, in0, i, j, k, h, dx, dy, a, b, geo, R0, cphi, sphi)
-        tb_, xb, yb, rb = polish(sb, tc, 1.0, not in0, i, j, k, h, dx, dy, a, b, geo, R0, cphi, sphi)
-        if in0:
-            _piece(i, k, 0.0, ta, px[i, k], py[i, k], R[i, k], xa, ya, ra, h, a, b, geo, R0, cphi, sphi, acc)
-            _piece(i, k, tb_, 1.0, xb, yb, rb, px[i, k1], py[i, k1], R[i, k1], h, a, b, geo, R0, cphi, sphi, acc)
-        else:
-            _piece(i, k, ta, tb_, xa, ya, ra, xb, yb, rb, h, a, b, geo, R0, cphi, sphi, acc)
+            if crossed:
+                # two crossings, in [0, tc] and [tc, 1]: start from the cubic's roots
+                # where the cubic crosses too, else from the secant
+                if (pc > 0.0) != in0:
+                    sa = _root(0.0, tc, g0, g0, g1, m0, m1)
+                    sb = _root(tc, 1.0, pc, g0, g1, m0, m1)
+                else:
+                    sa = tc * g0 / (g0 - gc)
+                    sb = tc + (1.0 - tc) * gc / (gc - g1)
+                t, x, y, r = polish(sa, 0.0, tc, in0, i, j, k, h, dx, dy, a, b, geo, R0, cphi, sphi)
+                u, xu, yu, ru = polish(sb, tc, 1.0, not in0, i, j, k, h, dx, dy, a, b, geo, R0, cphi, sphi)
+                if in0:
+                    f1, f2, f3, nq = _piece(k, 0.0, t, xa, ya, ra, x, y, r, h, cphi, sphi, tb, tid, nq)
+                    fx += f1
+                    fy += f2
+                    tq += f3
+                    ta, xa, ya, ra = u, xu, yu, ru
+                else:
+                    ta, xa, ya, ra = t, x, y, r
+                    tb_, xb, yb, rb = u, xu, yu, ru
+        f1, f2, f3, nq = _piece(k, ta, tb_, xa, ya, ra, xb, yb, rb, h, cphi, sphi, tb, tid, nq)
+        fx += f1
+        fy += f2
+        tq += f3
+    acc[i, 0] += fx
+    acc[i, 1] += fy
+    acc[i, 2] += tq
+    if nq > 0:
+        _shape_integrals(i, nq, a, b, geo, R0, tb, tid, acc)

@@ -13,7 +13,7 @@ Array conventions (N cells, K contour points, M1 = M - 1 shape modes):
 - ``tx, ty``      like px, py: contour tangents dx/dphi (arc rule only)
 - ``geo``         float64[N, 5]   a0, bounding radius (rigorous), cos(theta),
   sin(theta), largest sampled radius
-- ``tbuf``        float64[threads, 9, K + 8]  per-thread window scratch
+- ``tbuf``        float64[threads, 9, 4K + 8]  per-thread window scratch (arc rule: Gauss nodes)
 """
 
 from __future__ import annotations
