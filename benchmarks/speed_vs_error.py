@@ -81,7 +81,7 @@ def copy_state(state):
     """Deep copy of a ``State`` (step and projection counters reset)."""
     return dataclasses.replace(state, pos=state.pos.copy(), image=state.image.copy(),
                                theta=state.theta.copy(), a=state.a.copy(), b=state.b.copy(),
-                               box=state.box.copy(), step=0, projections=0, extra={})
+                               box=state.box.copy(), step=0, projections=0)
 
 
 def fork(sim, *, seed=None, **changes):

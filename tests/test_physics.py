@@ -32,10 +32,28 @@ def test_two_circles_force_converges_to_chord(d):
         errs[K] = abs(-f[0, 0] - chord) / chord
     assert errs[10240] < 2e-3  # issue bar: within 0.2 % at K = 10 240
     assert errs[10240] < errs[40] or errs[40] < 2e-3
-    # the arc rule is accurate already at K = 40
+    # the arc rule at K = 40: the force is the turned chord between the crossings, which
+    # are solved on the true contours (Newton step < 1e-2 of a segment, error ~ step^2)
     r = kernel_rates(pos, th, Z, Z, eta=0.0, v0=0.0, contour_points=40, quadrature="arc")
-    assert -r["dpos"][0, 0] == pytest.approx(chord, rel=2e-3)
-    assert r["dpos"][1, 0] == pytest.approx(chord, rel=2e-3)
+    assert -r["dpos"][0, 0] == pytest.approx(chord, rel=1e-5)
+    assert r["dpos"][1, 0] == pytest.approx(chord, rel=1e-5)
+
+
+@pytest.mark.parametrize("gap", [1e-3, 1e-4])
+def test_shallow_contact_between_sample_points(gap):
+    """A contact whose chord (0.063 / 0.020 R0) is shorter than the point spacing
+    (0.157 R0) and centred between two sample points of both cells: no sample point is
+    inside, so the binary rule sees nothing, while the arc rule finds it on the Hermite
+    cubic, confirms it on the true gap and returns the exact chord force."""
+    d = 2.0 - gap
+    chord = 2 * math.sqrt(1 - d * d / 4)
+    half = math.pi / 40  # half the point spacing at K = 40
+    pos, th = two_circles(d, theta=(half, math.pi + half))
+    binary = kernel_rates(pos, th, Z, Z, eta=0.0, v0=0.0, contour_points=40, quadrature="binary")
+    assert np.all(binary["dpos"] == 0.0)
+    f = kernel_rates(pos, th, Z, Z, eta=0.0, v0=0.0, contour_points=40, quadrature="arc")["dpos"]
+    assert -f[0, 0] == pytest.approx(chord, rel=1e-5) and f[1, 0] == pytest.approx(chord, rel=1e-5)
+    assert abs(f[0, 1]) < 1e-6 * chord and abs(f[1, 1]) < 1e-6 * chord
 
 
 @pytest.mark.parametrize("quadrature,Ks,last_tol", [("binary", (40, 640, 10240), 0.02),

@@ -163,7 +163,7 @@ def rates_from_occupancy(o, theta, a, b, *, eta, v0, R0=1.0, mu_theta=1.0, mu_sh
 
 #: Contact-arc rule: a Newton step on the true gap below this (in units of the segment)
 #: ends the root iteration.
-ROOT_STEP = 1e-2
+ROOT_STEP = 1e-4
 #: Contact-arc rule: Hermite cubics farther than this from zero (R0 units at K = 40,
 #: scaled by (40/K)^4 like the interpolation error) are trusted without evaluating the
 #: true gap; nearer ones are confirmed on it.
