@@ -424,7 +424,7 @@ def pair_linear(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, 
         W[i, kk1] += second
 
 
-@njit(**NJIT)
+@njit(inline="always", **NJIT)
 def pair_arc(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tb, tid, acc):
     """Contact-arc rule: exact arc integrals into acc[i] (see :mod:`.arcs`)."""
     k0, nseg = gap_window(i, j, dx, dy, True, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tb, tid)
@@ -450,7 +450,7 @@ def pair_weights(i, j, dx, dy, theta, a, b, geo, R, dR, px, py, tx, ty, cphi, sp
         pair_linear(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, W, tb, tid)
 
 
-@njit(**NJIT)
+@njit(inline="always", **NJIT)
 def cell_rates(i, theta, a, b, geo, R, dR, cosn, sinn, cphi, sphi, W, acc, R0, eta, v0, mu_theta, mu_shape,
                dpos, dth, da, db):
     """Rates of cell i from its point weights ``W[i]`` and arc integrals ``acc[i]``.
