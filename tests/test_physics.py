@@ -71,12 +71,14 @@ def test_action_reaction_vanishes_with_K(quadrature, Ks, last_tol):
     assert imb[-1] <= imb[0] + 1e-12
 
 
-@pytest.mark.parametrize("quadrature,K,tol", [("binary", 10240, 2e-3), ("linear", 1280, 0.01), ("arc", 40, 0.05),
-                                              ("arc", 160, 0.005)])
+@pytest.mark.parametrize("quadrature,K,tol", [("binary", 10240, 2e-3), ("linear", 1280, 0.01), ("arc", 40, 1e-3),
+                                              ("arc", 160, 1e-5)])
 def test_rates_match_finite_differences_of_exact_overlap(quadrature, K, tol):
     """Rates against the continuum integrals on exact arcs, which themselves equal finite
     differences of the exact overlap area (tests/test_overlap_exact.py), for deformed
-    shapes (sum |c_n| = 0.15 and 0.4).  Tolerance relative to the largest rate."""
+    shapes (sum |c_n| = 0.15 and 0.4).  Tolerance relative to the largest rate.  Arc
+    rule: forces and torques are exact up to the root tolerance (measured 1e-9), shape
+    rates carry the two-point Gauss error (measured 2.5e-4 at K = 40, 9e-7 at K = 160)."""
     for deform, seed in ((0.15, 3), (0.4, 4)):
         pos, theta, a, b, box = dense_config(16, seed=seed, deform=deform)
         kw = dict(eta=0.0, v0=0.0, box=box)
