@@ -33,7 +33,7 @@ import math
 from numba import njit
 
 from ..model.rates import DIP_MARGIN, ROOT_STEP
-from .fourier import fourier6, modes6, multiples6
+from .fourier import fourier_series, modes6, multiples6
 from .options import NJIT
 
 _G = 0.5 / math.sqrt(3.0)  # Gauss-Legendre nodes at 1/2 -+ _G on [0, 1]
@@ -120,27 +120,6 @@ def _cos_sin_small(d):
     return c, s
 
 
-
-@njit(inline="always", **NJIT)
-def _series(c, s, a, b, j):
-    """sum_n (a_n cos n psi + b_n sin n psi) of cell j and its psi-derivative."""
-    M1 = a.shape[1]
-    if M1 <= 5:
-        a2, a3, a4, a5, a6, b2, b3, b4, b5, b6 = modes6(a, b, j)
-        return fourier6(c, s, a2, a3, a4, a5, a6, b2, b3, b4, b5, b6)
-    cn = c
-    sn = s
-    r = 0.0
-    dr = 0.0
-    for m in range(M1):
-        t = cn * c - sn * s
-        sn = sn * c + cn * s
-        cn = t
-        r += a[j, m] * cn + b[j, m] * sn
-        dr += (m + 2.0) * (b[j, m] * cn - a[j, m] * sn)
-    return r, dr
-
-
 @njit(inline="always", **NJIT)
 def _angle(k, t, h, cphi, sphi):
     """cos and sin of phi_k + t h."""
@@ -162,7 +141,7 @@ def true_gap(i, j, k, t, h, dx, dy, a, b, geo, R0, cphi, sphi):
     derivatives (used to move the point to a Newton-corrected root).
     """
     cp, sp = _angle(k, t, h, cphi, sphi)
-    ri, dri = _series(cp, sp, a, b, i)
+    ri, dri = fourier_series(cp, sp, a, b, i)
     r = R0 * (geo[i, 0] + ri)
     dr = R0 * dri
     ex = geo[i, 2] * cp - geo[i, 3] * sp
@@ -177,7 +156,7 @@ def true_gap(i, j, k, t, h, dx, dy, a, b, geo, R0, cphi, sphi):
     inv = 1.0 / max(dist, 1e-300)
     cj = (ox * geo[j, 2] + oy * geo[j, 3]) * inv
     sj = (oy * geo[j, 2] - ox * geo[j, 3]) * inv
-    rj, drj = _series(cj, sj, a, b, j)
+    rj, drj = fourier_series(cj, sj, a, b, j)
     g = R0 * (geo[j, 0] + rj) - dist
     dpsi = (ox * ty - oy * tx) * inv * inv
     dg = (R0 * drj * dpsi - (ox * tx + oy * ty) * inv) * h
@@ -269,7 +248,7 @@ def _shape_integrals(i, nq, a, b, geo, R0, tb, tid, acc):
     for q in range(nq):
         cp = tb[tid, 0, q]
         sp = tb[tid, 1, q]
-        rr, _ = _series(cp, sp, a, b, i)
+        rr, _ = fourier_series(cp, sp, a, b, i)
         wr = tb[tid, 2, q] * R0 * (geo[i, 0] + rr)
         acc[i, 3] += wr
         cn = cp

@@ -24,7 +24,7 @@ import numpy as np
 from numba import get_thread_id, njit, prange
 
 from .arcs import arc_pair
-from .fourier import fourier6, modes6
+from .fourier import fourier6, fourier_series, modes6
 from .options import NJIT
 
 
@@ -131,7 +131,6 @@ def geometry(theta, a, b, R0, cosn, sinn, cphi, sphi, R, dR, px, py, tx, ty, tan
 @njit(**NJIT)
 def gap_at(ox, oy, j, a, b, geo, R0):
     """Radial gap R_j(psi) - |d| of the offset d = (ox, oy) from the centre of cell j."""
-    M1 = a.shape[1]
     d2 = ox * ox + oy * oy
     r = math.sqrt(d2)
     if r < 1e-300:
@@ -141,15 +140,8 @@ def gap_at(ox, oy, j, a, b, geo, R0):
     st = geo[j, 3]
     c = (ox * ct + oy * st) * inv
     s = (oy * ct - ox * st) * inv
-    cn = c
-    sn = s
-    Rj = geo[j, 0]
-    for m in range(M1):
-        t = cn * c - sn * s
-        sn = sn * c + cn * s
-        cn = t
-        Rj += a[j, m] * cn + b[j, m] * sn
-    return R0 * Rj - r
+    rr, _ = fourier_series(c, s, a, b, j)
+    return R0 * (geo[j, 0] + rr) - r
 
 
 @njit(inline="always", **NJIT)

@@ -56,3 +56,24 @@ def fourier6(c, s, a2, a3, a4, a5, a6, b2, b3, b4, b5, b6):
     dr = (2.0 * (b2 * c2 - a2 * s2) + 3.0 * (b3 * c3 - a3 * s3) + 4.0 * (b4 * c4 - a4 * s4)
           + 5.0 * (b5 * c5 - a5 * s5) + 6.0 * (b6 * c6 - a6 * s6))
     return r, dr
+
+
+@njit(inline="always", **NJIT)
+def fourier_series(c, s, a, b, j):
+    """sum_n (a_n cos n psi + b_n sin n psi) of cell j and its psi-derivative, for any
+    number of modes (:func:`fourier6` for M <= 6, else the multiple-angle recurrence)."""
+    M1 = a.shape[1]
+    if M1 <= 5:
+        a2, a3, a4, a5, a6, b2, b3, b4, b5, b6 = modes6(a, b, j)
+        return fourier6(c, s, a2, a3, a4, a5, a6, b2, b3, b4, b5, b6)
+    cn = c
+    sn = s
+    r = 0.0
+    dr = 0.0
+    for m in range(M1):
+        t = cn * c - sn * s
+        sn = sn * c + cn * s
+        cn = t
+        r += a[j, m] * cn + b[j, m] * sn
+        dr += (m + 2.0) * (b[j, m] * cn - a[j, m] * sn)
+    return r, dr

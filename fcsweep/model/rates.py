@@ -214,20 +214,20 @@ class _Contour:
         return R[:, None] * e, dR[:, None] * e + R[:, None] * ep, R, dR
 
     def gap(self, phi):
-        """Radial gap g = R_j(psi) - |d| and dg/dphi at contour angles ``phi``."""
-        x, tan, R, _ = self.point(phi)
+        """Radial gap g = R_j(psi) - |d| and dg/dphi at contour angles ``phi``, with the
+        contour point, tangent, R and R' there."""
+        x, tan, R, dR = self.point(phi)
         d = x - self.rij
         dist = np.hypot(d[:, 0], d[:, 1])
         Rj, dRj = radius(np.arctan2(d[:, 1], d[:, 0]) - self.tj, self.aj, self.bj, self.R0)
         dpsi = (d[:, 0] * tan[:, 1] - d[:, 1] * tan[:, 0]) / dist**2
-        return Rj - dist, dRj * dpsi - (d * tan).sum(axis=1) / dist, x, tan, R
+        return Rj - dist, dRj * dpsi - (d * tan).sum(axis=1) / dist, x, tan, R, dR
 
     def root(self, phi_k, h, t, tl, tr, left_inside):
         """Crossing of the contour with j's in phi_k + h [tl, tr] (gap > 0 at tl iff
         ``left_inside``): bracketed Newton from t.  Returns (t, x, R) there."""
         for _ in range(60):
-            g, dg, x, tan, R = self.gap(phi_k + h * t)
-            _, _, _, dR = self.point(phi_k + h * t)
+            g, dg, x, tan, R, dR = self.gap(phi_k + h * t)
             if (g[0] > 0) == left_inside:
                 tl = t
             else:
@@ -306,7 +306,7 @@ def arc_integrals(pos, theta, a, b, *, box=None, R0=1.0, contour_points=40):
                 if np.hypot(*rij) >= Rb[i] + Rb[j]:
                     continue
                 c = _Contour(theta[i], a[i], b[i], rij, theta[j], a[j], b[j], R0)
-                g, dg, x, _, R = c.gap(phi)
+                g, dg, x, _, R, _ = c.gap(phi)
                 slope = h * dg
                 for k in range(K):
                     pieces = _arc_pieces(c, phi[k], h, g[k], g[k + 1], slope[k], slope[k + 1],
