@@ -17,13 +17,10 @@ contour point and of R^2/2), so their integrals are closed-form differences of t
 points; the shape integrals (R, R cos n phi, R sin n phi) use two-point Gauss-Legendre,
 with the nodes of all pieces of a pair summed in one pass.
 
-Every helper that returns floating-point values is inlined into :func:`arc_pair` (numba
-IR inlining), which is one compiled function called per pair.  With the helpers as
-separate functions, code loaded from numba's on-disk cache rounded differently from a
-fresh compilation (LLVM fuses operations across a call boundary only when it can see
-both sides), so trajectories depended on whether the cache was warm.  Inlining
-:func:`arc_pair` into the parallel pair loop as well would save about 130 ns per pair
-of call overhead but took ten minutes to compile.
+Every helper is inlined into :func:`arc_pair` (numba IR inlining), which is one
+compiled function called per pair.  Inlining :func:`arc_pair` into the parallel pair
+loop as well would save about 130 ns per pair of call overhead but took ten minutes to
+compile.
 """
 
 from __future__ import annotations

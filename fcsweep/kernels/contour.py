@@ -443,14 +443,90 @@ def pair_weights(i, j, dx, dy, theta, a, b, geo, R, dR, px, py, tx, ty, cphi, sp
 
 
 @njit(inline="always", **NJIT)
-def cell_rates(i, theta, a, b, geo, R, dR, cosn, sinn, cphi, sphi, W, acc, R0, eta, v0, mu_theta, mu_shape,
+def _sums4(x0, x1, x2, x3, ui, K):
+    """Sums over k < K of the rows ``x0[ui]`` .. ``x3[ui]`` in a fixed order: four
+    interleaved partial sums (k mod 4), added pairwise at the end.
+
+    Written out so that the compiler vectorises it without reassociating: the order of
+    the additions is the source order, wherever and however the code is compiled
+    (see :mod:`fcsweep.kernels.options`).
+    """
+    p0 = p1 = p2 = p3 = 0.0
+    q0 = q1 = q2 = q3 = 0.0
+    r0 = r1 = r2 = r3 = 0.0
+    t0 = t1 = t2 = t3 = 0.0
+    K4 = K - K % np.uint64(4)
+    for k in range(np.uint64(0), K4, np.uint64(4)):
+        p0 += x0[ui, k]
+        p1 += x0[ui, k + 1]
+        p2 += x0[ui, k + 2]
+        p3 += x0[ui, k + 3]
+        q0 += x1[ui, k]
+        q1 += x1[ui, k + 1]
+        q2 += x1[ui, k + 2]
+        q3 += x1[ui, k + 3]
+        r0 += x2[ui, k]
+        r1 += x2[ui, k + 1]
+        r2 += x2[ui, k + 2]
+        r3 += x2[ui, k + 3]
+        t0 += x3[ui, k]
+        t1 += x3[ui, k + 1]
+        t2 += x3[ui, k + 2]
+        t3 += x3[ui, k + 3]
+    for k in range(K4, K):
+        p0 += x0[ui, k]
+        q0 += x1[ui, k]
+        r0 += x2[ui, k]
+        t0 += x3[ui, k]
+    return (p0 + p1) + (p2 + p3), (q0 + q1) + (q2 + q3), (r0 + r1) + (r2 + r3), (t0 + t1) + (t2 + t3)
+
+
+@njit(inline="always", **NJIT)
+def _mode_sums(u, v, ui, cosn, sinn, m, K):
+    """(sum u_k cos n phi_k, sum u_k sin, sum v_k cos, sum v_k sin) over k < K for the
+    mode row m of the tables, in the fixed order of :func:`_sums4`."""
+    p0 = p1 = p2 = p3 = 0.0
+    q0 = q1 = q2 = q3 = 0.0
+    r0 = r1 = r2 = r3 = 0.0
+    t0 = t1 = t2 = t3 = 0.0
+    K4 = K - K % np.uint64(4)
+    for k in range(np.uint64(0), K4, np.uint64(4)):
+        p0 += u[ui, k] * cosn[m, k]
+        p1 += u[ui, k + 1] * cosn[m, k + 1]
+        p2 += u[ui, k + 2] * cosn[m, k + 2]
+        p3 += u[ui, k + 3] * cosn[m, k + 3]
+        q0 += u[ui, k] * sinn[m, k]
+        q1 += u[ui, k + 1] * sinn[m, k + 1]
+        q2 += u[ui, k + 2] * sinn[m, k + 2]
+        q3 += u[ui, k + 3] * sinn[m, k + 3]
+        r0 += v[ui, k] * cosn[m, k]
+        r1 += v[ui, k + 1] * cosn[m, k + 1]
+        r2 += v[ui, k + 2] * cosn[m, k + 2]
+        r3 += v[ui, k + 3] * cosn[m, k + 3]
+        t0 += v[ui, k] * sinn[m, k]
+        t1 += v[ui, k + 1] * sinn[m, k + 1]
+        t2 += v[ui, k + 2] * sinn[m, k + 2]
+        t3 += v[ui, k + 3] * sinn[m, k + 3]
+    for k in range(K4, K):
+        p0 += u[ui, k] * cosn[m, k]
+        q0 += u[ui, k] * sinn[m, k]
+        r0 += v[ui, k] * cosn[m, k]
+        t0 += v[ui, k] * sinn[m, k]
+    return (p0 + p1) + (p2 + p3), (q0 + q1) + (q2 + q3), (r0 + r1) + (r2 + r3), (t0 + t1) + (t2 + t3)
+
+
+@njit(inline="always", **NJIT)
+def cell_rates(i, theta, a, b, geo, R, dR, px, py, cosn, sinn, cphi, sphi, W, acc, R0, eta, v0, mu_theta, mu_shape,
                dpos, dth, da, db):
     """Rates of cell i from its point weights ``W[i]`` and arc integrals ``acc[i]``.
 
     ``W[i]`` is periodic with period K (windows never wrap); it is folded first.
     ``acc[i]`` holds, for the arc rule, the integrals over overlap arcs of
     [force x, force y, torque, R, R cos n phi (M1), R sin n phi (M1)].
-    ``W[i]`` and ``R[i]`` are used as scratch afterwards (both are rebuilt every step).
+    The rows ``W[i]``, ``R[i]``, ``dR[i]``, ``px[i]`` and ``py[i]`` are used as scratch
+    afterwards (all are rebuilt every step).  Every sum has a fixed order, so the rates
+    are the same to the last bit whether the kernel was just compiled or loaded from
+    numba's cache.
     """
     K = np.uint64(cphi.shape[0])
     L = np.uint64(W.shape[1])
@@ -469,42 +545,27 @@ def cell_rates(i, theta, a, b, geo, R, dR, cosn, sinn, cphi, sphi, W, acc, R0, e
         W[ui, k] += W[ui, k + K]
     for k in range(K, L):
         W[ui, k - K] += W[ui, k]
-    fx = 0.0
-    fy = 0.0
-    tq = 0.0
-    usum = 0.0
     for k in range(K):
         w = W[ui, k]
         r = R[ui, k]
         d = dR[ui, k]
         ex = c * cphi[k] - s * sphi[k]
         ey = s * cphi[k] + c * sphi[k]
-        fx += w * (-d * ey - r * ex)
-        fy += w * (d * ex - r * ey)
-        tq += w * r * d
+        px[ui, k] = w * (-d * ey - r * ex)
+        py[ui, k] = w * (d * ex - r * ey)
+        dR[ui, k] = w * r * d
         # u_k = w R + eta R/s and v_k = eta R'/s (perimeter gradient on the same points)
         inv_s = 1.0 / math.sqrt(r * r + d * d)
-        u = (w * r + eta * r * inv_s) * dphi
-        W[ui, k] = u
-        usum += u
+        W[ui, k] = (w * r + eta * r * inv_s) * dphi
         R[ui, k] = eta * d * inv_s * dphi
+    fx, fy, tq, usum = _sums4(px, py, dR, W, ui, K)
     dpos[i, 0] = v0 * c + fx * dphi + acc[i, 0]
     dpos[i, 1] = v0 * s + fy * dphi + acc[i, 1]
     dth[i] = mu_theta * (tq * dphi + acc[i, 2])
     usum += acc[i, 3]
     for m in range(M1):
         n = m + 2.0
-        uc = 0.0
-        us = 0.0
-        vc = 0.0
-        vs = 0.0
-        for k in range(K):
-            u = W[ui, k]
-            v = R[ui, k]
-            uc += u * cosn[m, k]
-            us += u * sinn[m, k]
-            vc += v * cosn[m, k]
-            vs += v * sinn[m, k]
+        uc, us, vc, vs = _mode_sums(W, R, ui, cosn, sinn, m, K)
         uc += acc[i, 4 + m]
         us += acc[i, 4 + M1 + m]
         da[i, m] = -mu_shape * R0 * (uc - a[i, m] / (2.0 * a0) * usum - n * vs)
@@ -566,5 +627,5 @@ def all_rates(pos, theta, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shap
                             continue
                         pair_weights(i, j, dx, dy, theta, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad,
                                      W, tbuf, tid, acc)
-        cell_rates(i, theta, a, b, geo, R, dR, cosn, sinn, cphi, sphi, W, acc, R0, eta, v0, mu_theta, mu_shape,
-                   dpos, dth, da, db)
+        cell_rates(i, theta, a, b, geo, R, dR, px, py, cosn, sinn, cphi, sphi, W, acc, R0, eta, v0, mu_theta,
+                   mu_shape, dpos, dth, da, db)
