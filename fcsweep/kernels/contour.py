@@ -447,9 +447,9 @@ def _sums4(x0, x1, x2, x3, ui, K):
     """Sums over k < K of the rows ``x0[ui]`` .. ``x3[ui]`` in a fixed order: four
     interleaved partial sums (k mod 4), added pairwise at the end.
 
-    Written out so that the compiler vectorises it without reassociating: the order of
-    the additions is the source order, wherever and however the code is compiled
-    (see :mod:`fcsweep.kernels.options`).
+    The four independent chains keep the adder busy although the compiler may not
+    reassociate (see :mod:`fcsweep.kernels.options`): the order of the additions is the
+    source order, wherever and however the code is compiled.
     """
     p0 = p1 = p2 = p3 = 0.0
     q0 = q1 = q2 = q3 = 0.0
