@@ -30,7 +30,7 @@ import math
 from numba import njit
 
 from ..model.rates import DIP_MARGIN, ROOT_STEP
-from .fourier import fourier6, fourier_series, modes6, multiples6
+from .fourier import fourier_series, modes6, multiples6, series6
 from .options import NJIT
 
 _G = 0.5 / math.sqrt(3.0)  # Gauss-Legendre nodes at 1/2 -+ _G on [0, 1]
@@ -222,7 +222,7 @@ def _shape_integrals(i, nq, a, b, geo, R0, tb, tid, acc):
         us2 = us3 = us4 = us5 = us6 = 0.0
         for q in range(nq):
             c2, c3, c4, c5, c6, s2, s3, s4, s5, s6 = multiples6(tb[tid, 0, q], tb[tid, 1, q])
-            rr, _ = fourier6(tb[tid, 0, q], tb[tid, 1, q], a2, a3, a4, a5, a6, b2, b3, b4, b5, b6)
+            rr, _ = series6(c2, c3, c4, c5, c6, s2, s3, s4, s5, s6, a2, a3, a4, a5, a6, b2, b3, b4, b5, b6)
             wr = tb[tid, 2, q] * R0 * (a0 + rr)
             u += wr
             uc2 += wr * c2

@@ -13,7 +13,7 @@ Array conventions (N cells, K contour points, M1 = M - 1 shape modes):
 - ``tx, ty``      like px, py: contour tangents dx/dphi (arc rule only)
 - ``geo``         float64[N, 5]   a0, bounding radius (rigorous), cos(theta),
   sin(theta), largest sampled radius
-- ``tbuf``        float64[threads, 9, 4K + 8]  per-thread window scratch (arc rule: Gauss nodes)
+- ``tbuf``        float64[threads, 8, 4K + 8]  per-thread window scratch (arc rule: Gauss nodes)
 """
 
 from __future__ import annotations
@@ -273,22 +273,20 @@ def window_gaps6(i, j, dx, dy, k0, n, slopes, a, b, geo, px, py, tx, ty, R0, h, 
 
 
 @njit(inline="always", **NJIT)
-def window_gaps_generic(i, j, dx, dy, k0, cnt, slopes, a, b, geo, R, dR, px, py, cphi, sphi, R0, tb, tid, n):
+def window_gaps_generic(i, j, dx, dy, k0, cnt, slopes, a, b, geo, R, dR, px, py, cphi, sphi, R0, tb, tid):
     """Radial gaps of the contour points k0 .. k0+cnt-1 of cell i relative to cell j.
 
     Written as three short loops over the window (direction cosines; the mode
     recurrence; the gap) so that the compiler vectorises them across points.  Row 6 of
-    ``tb`` receives g, row 7 dg/dphi when ``slopes`` is set (arc rule).  ``n`` points
-    are used; ``tb[8]`` may list contour indices (binary rule) else k0 + m.
+    ``tb`` receives g, row 7 dg/dphi when ``slopes`` is set (arc rule).
     """
     K = cphi.shape[0]
     M1 = a.shape[1]
     ct = geo[j, 2]
     st = geo[j, 3]
-    for m in range(n):
-        kk = k0 + m if k0 >= 0 else int(tb[tid, 8, m])
-        ox = px[i, kk] - dx
-        oy = py[i, kk] - dy
+    for m in range(cnt):
+        ox = px[i, k0 + m] - dx
+        oy = py[i, k0 + m] - dy
         r = math.sqrt(ox * ox + oy * oy)
         inv = 1.0 / max(r, 1e-300)
         c = (ox * ct + oy * st) * inv
@@ -304,7 +302,7 @@ def window_gaps_generic(i, j, dx, dy, k0, cnt, slopes, a, b, geo, R, dR, px, py,
         am = a[j, mm]
         bm = b[j, mm]
         nn = mm + 2.0
-        for m in range(n):
+        for m in range(cnt):
             c = tb[tid, 0, m]
             s = tb[tid, 1, m]
             cn = tb[tid, 2, m] * c - tb[tid, 3, m] * s
@@ -313,13 +311,13 @@ def window_gaps_generic(i, j, dx, dy, k0, cnt, slopes, a, b, geo, R, dR, px, py,
             tb[tid, 3, m] = sn
             tb[tid, 4, m] += am * cn + bm * sn
             tb[tid, 7, m] += nn * (bm * cn - am * sn)
-    for m in range(n):
+    for m in range(cnt):
         tb[tid, 6, m] = R0 * tb[tid, 4, m] - tb[tid, 5, m]
     if slopes:
         h = 2.0 * math.pi / K
         ci = geo[i, 2]
         si = geo[i, 3]
-        for m in range(n):
+        for m in range(cnt):
             k = (k0 + m) % K
             ox = px[i, k] - dx
             oy = py[i, k] - dy
@@ -384,7 +382,7 @@ def gap_window(i, j, dx, dy, slopes, a, b, geo, R, dR, px, py, tx, ty, cphi, sph
         window_gaps6(i, j, dx, dy, k0, nseg + 1, slopes, a, b, geo, px, py, tx, ty, R0, 2.0 * math.pi / K, tb, tid)
     else:
         window_gaps_generic(i, j, dx, dy, k0, nseg + 1, slopes, a, b, geo, R, dR, px, py, cphi, sphi,
-                            R0, tb, tid, nseg + 1)
+                            R0, tb, tid)
     return k0, nseg
 
 
@@ -424,7 +422,7 @@ def pair_arc(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tb,
 
 
 @njit(inline="always", **NJIT)
-def pair_weights(i, j, dx, dy, theta, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad, W, tb, tid, acc):
+def pair_weights(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad, W, tb, tid, acc):
     """Add the overlap of cell j onto cell i with the chosen rule.
 
     ``(dx, dy)`` is r_j - r_i for the image of j being considered.  Binary and linear
@@ -516,7 +514,7 @@ def _mode_sums(u, v, ui, cosn, sinn, m, K):
 
 
 @njit(inline="always", **NJIT)
-def cell_rates(i, theta, a, b, geo, R, dR, px, py, cosn, sinn, cphi, sphi, W, acc, R0, eta, v0, mu_theta, mu_shape,
+def cell_rates(i, a, b, geo, R, dR, px, py, cosn, sinn, cphi, sphi, W, acc, R0, eta, v0, mu_theta, mu_shape,
                dpos, dth, da, db):
     """Rates of cell i from its point weights ``W[i]`` and arc integrals ``acc[i]``.
 
@@ -573,7 +571,7 @@ def cell_rates(i, theta, a, b, geo, R, dR, px, py, cosn, sinn, cphi, sphi, W, ac
 
 
 @njit(parallel=True, **NJIT)
-def all_rates(pos, theta, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shape, quad,
+def all_rates(pos, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shape, quad,
               cosn, sinn, cphi, sphi, R, dR, px, py, tx, ty, geo, W, tbuf, acc,
               use_list, nbr, count, dpos, dth, da, db):
     """Deterministic rates of every cell (geometry must be current).
@@ -611,7 +609,7 @@ def all_rates(pos, theta, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shap
                 cut = rbi + geo[j, 1]
                 if dx * dx + dy * dy >= cut * cut:
                     continue
-                pair_weights(i, j, dx, dy, theta, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad,
+                pair_weights(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad,
                              W, tbuf, tid, acc)
         else:
             nimg = 1 if periodic else 0
@@ -625,7 +623,7 @@ def all_rates(pos, theta, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shap
                         cut = rbi + geo[j, 1]
                         if dx * dx + dy * dy >= cut * cut:
                             continue
-                        pair_weights(i, j, dx, dy, theta, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad,
+                        pair_weights(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad,
                                      W, tbuf, tid, acc)
-        cell_rates(i, theta, a, b, geo, R, dR, px, py, cosn, sinn, cphi, sphi, W, acc, R0, eta, v0, mu_theta,
+        cell_rates(i, a, b, geo, R, dR, px, py, cosn, sinn, cphi, sphi, W, acc, R0, eta, v0, mu_theta,
                    mu_shape, dpos, dth, da, db)

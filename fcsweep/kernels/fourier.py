@@ -47,11 +47,9 @@ def modes6(a, b, j):
 
 
 @njit(inline="always", **NJIT)
-def fourier6(c, s, a2, a3, a4, a5, a6, b2, b3, b4, b5, b6):
-    """sum_n (a_n cos n psi + b_n sin n psi) and its psi-derivative for n = 2..6,
-    from c = cos psi and s = sin psi (no trig calls).  Straight-line code, so that loops
-    calling it vectorise across points."""
-    c2, c3, c4, c5, c6, s2, s3, s4, s5, s6 = multiples6(c, s)
+def series6(c2, c3, c4, c5, c6, s2, s3, s4, s5, s6, a2, a3, a4, a5, a6, b2, b3, b4, b5, b6):
+    """sum_n (a_n cos n psi + b_n sin n psi) and its psi-derivative for n = 2..6 from the
+    multiple-angle values of :func:`multiples6`."""
     # summed as a tree, not left to right: a short dependency chain without letting the
     # compiler reassociate (see fcsweep.kernels.options)
     r = ((a2 * c2 + b2 * s2) + (a3 * c3 + b3 * s3)) + ((a4 * c4 + b4 * s4) + (a5 * c5 + b5 * s5)) \
@@ -60,6 +58,15 @@ def fourier6(c, s, a2, a3, a4, a5, a6, b2, b3, b4, b5, b6):
                                                                       + 5.0 * (b5 * c5 - a5 * s5))) \
         + 6.0 * (b6 * c6 - a6 * s6)
     return r, dr
+
+
+@njit(inline="always", **NJIT)
+def fourier6(c, s, a2, a3, a4, a5, a6, b2, b3, b4, b5, b6):
+    """sum_n (a_n cos n psi + b_n sin n psi) and its psi-derivative for n = 2..6,
+    from c = cos psi and s = sin psi (no trig calls).  Straight-line code, so that loops
+    calling it vectorise across points."""
+    c2, c3, c4, c5, c6, s2, s3, s4, s5, s6 = multiples6(c, s)
+    return series6(c2, c3, c4, c5, c6, s2, s3, s4, s5, s6, a2, a3, a4, a5, a6, b2, b3, b4, b5, b6)
 
 
 @njit(inline="always", **NJIT)

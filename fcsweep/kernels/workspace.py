@@ -33,7 +33,7 @@ class Workspace:
             np.zeros((N, 2 * K + LANES)),  # ty
             np.zeros((N, 5)),  # geo: a0, bounding radius, cos, sin theta, largest sampled radius
             np.zeros((N, 2 * K + LANES)),  # W: point weights, periodic like px
-            np.zeros((numba.config.NUMBA_NUM_THREADS, 9, 4 * K + 8)),  # tbuf: window scratch, Gauss nodes
+            np.zeros((numba.config.NUMBA_NUM_THREADS, 8, 4 * K + 8)),  # tbuf: window scratch, Gauss nodes
             np.zeros((N, 4 + 2 * self.M1)),  # acc: arc integrals
         )
         # cells of side >= 2 R0 (a0 + s) >= 2 R0 a0 >= 2 R0 / sqrt(3) ... bounded count
