@@ -182,12 +182,10 @@ def test_isolated_active_cells_diffuse_with_D0():
 def test_neighbour_list_growth_and_rebuild_times_do_not_change_the_run():
     """A list that overflows (capacity 1) is enlarged mid-chunk; lists rebuilt at other
     steps visit pairs in the same (sorted) order, so the run is bit-identical."""
-    from fcsweep.kernels.workspace import Workspace
-
     ref = make(N=144, quadrature="arc")
     ref.advance(300)
     sim = make(N=144, quadrature="arc")
-    sim._ws.nl = Workspace._neighbour_list(144, 1)
+    sim._ws.nl = sim._ws.neighbour_list(1)
     sim.advance(150)
     sim._ws.nl[4][0] = 0  # force a rebuild at an arbitrary step
     sim.advance(150)

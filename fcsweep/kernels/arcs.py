@@ -210,9 +210,9 @@ def _piece(k, t1, t2, x1, y1, r1, x2, y2, r2, h, cphi, sphi, tb, tid, nq):
 
 
 @njit(**NJIT)
-def _shape_integrals(i, nq, a, b, geo, R0, tb, tid, acc):
-    """Add the Gauss sums of R, R cos n phi and R sin n phi over the ``nq`` nodes stored
-    by :func:`_piece` in ``tb[tid]`` to ``acc[i, 3:]``."""
+def _shape_integrals(i, nq, a, b, geo, R0, tb, tid, acc, row):
+    """Add the Gauss sums of cell i's R, R cos n phi and R sin n phi over the ``nq``
+    nodes (cos, sin, weight) stored in rows 0-2 of ``tb[tid]`` to ``acc[row, 3:]``."""
     M1 = a.shape[1]
     if M1 <= 5:
         a2, a3, a4, a5, a6, b2, b3, b4, b5, b6 = modes6(a, b, i)
@@ -235,58 +235,136 @@ def _shape_integrals(i, nq, a, b, geo, R0, tb, tid, acc):
             us4 += wr * s4
             us5 += wr * s5
             us6 += wr * s6
-        acc[i, 3] += u
+        acc[row, 3] += u
         uc = (uc2, uc3, uc4, uc5, uc6)
         us = (us2, us3, us4, us5, us6)
         for m in range(M1):
-            acc[i, 4 + m] += uc[m]
-            acc[i, 4 + M1 + m] += us[m]
+            acc[row, 4 + m] += uc[m]
+            acc[row, 4 + M1 + m] += us[m]
         return
     for q in range(nq):
         cp = tb[tid, 0, q]
         sp = tb[tid, 1, q]
         rr, _ = fourier_series(cp, sp, a, b, i)
         wr = tb[tid, 2, q] * R0 * (geo[i, 0] + rr)
-        acc[i, 3] += wr
+        acc[row, 3] += wr
         cn = cp
         sn = sp
         for m in range(M1):
             tt = cn * cp - sn * sp
             sn = sn * cp + cn * sp
             cn = tt
-            acc[i, 4 + m] += wr * cn
-            acc[i, 4 + M1 + m] += wr * sn
+            acc[row, 4 + m] += wr * cn
+            acc[row, 4 + M1 + m] += wr * sn
 
 
-@njit(**NJIT)
-def arc_pair(i, j, dx, dy, k0, nseg, a, b, geo, R, px, py, R0, cphi, sphi, tb, tid, acc):
-    """Integrate the overlap of neighbour j (at offset (dx, dy)) over the contour of cell i.
+@njit(inline="always", **NJIT)
+def may_touch(nseg, K, R0, tb, tid):
+    """False if the Hermite cubics of all window segments stay below -eps: the pair does
+    not touch and :func:`arc_pair` would add nothing.
 
-    ``tb[tid, 6, m]`` and ``tb[tid, 7, m]`` hold the gap and h * dg/dphi at window point m
-    (contour index k0 + m, modulo K); segments m = 0 .. nseg - 1 join points m, m + 1.
-    ``R``, ``px``, ``py`` are the sampled radii and contour points of
-    :func:`fcsweep.kernels.contour.geometry`.  Adds the arc integrals to ``acc[i]``.
+    On segment m write the cubic as p(t) = (1-t) g0 + t g1 + t(1-t) [(1-t) A - t B] with
+    A = m0 - (g1-g0), B = m1 - (g1-g0); the bracket lies between A and -B and
+    t(1-t) <= 1/4, so p <= max(g0, g1) + max(A, -B, 0)/4.  Most pairs in a dense packing
+    come close without touching: this one branch-free pass settles them.
     """
-    K = cphi.shape[0]
-    h = 2.0 * math.pi / K
     eps = DIP_MARGIN * R0 * (40.0 / K) ** 4
-    # On segment m write the cubic as p(t) = (1-t) g0 + t g1 + t(1-t) [(1-t) A - t B] with
-    # A = m0 - (g1-g0), B = m1 - (g1-g0); the bracket lies between A and -B and
-    # t(1-t) <= 1/4, so p <= max(g0, g1) + max(A, -B, 0)/4 and
-    # p >= min(g0, g1) - max(-A, B, 0)/4.  Most pairs in a dense packing come close
-    # without touching: one branch-free pass over the upper bound settles them.
     top = -1e300
     for m in range(nseg):
         g0 = tb[tid, 6, m]
         g1 = tb[tid, 6, m + 1]
         dg = g1 - g0
         top = max(top, max(g0, g1) + 0.25 * max(tb[tid, 7, m] - dg, dg - tb[tid, 7, m + 1], 0.0))
-    if top <= -eps:
-        return
+    return top > -eps
+
+
+@njit(inline="always", **NJIT)
+def _crossing(x, y, kind, nc, tb, tid):
+    """Record a crossing of the two contours at (x, y) (relative to r_i) in rows 3-5 of
+    ``tb[tid]``: ``kind`` +1 where i's contour enters j, -1 where it leaves."""
+    tb[tid, 3, nc] = x
+    tb[tid, 4, nc] = y
+    tb[tid, 5, nc] = kind
+    return nc + 1
+
+
+@njit(**NJIT)
+def _other_side(j, dx, dy, nc, fx, fy, a, b, geo, R0, h, tb, tid, dst, row):
+    """Add cell j's integrals over its arcs inside cell i, from the ``nc`` crossings that
+    :func:`arc_pair` found on i's contour, to ``dst[row]``.
+
+    The overlap region is bounded by i's arcs inside j and j's arcs inside i, so j's
+    force is minus i's, exactly.  Each of j's arcs runs counter-clockwise from a crossing
+    where i's contour leaves j to the next crossing along j's contour; its torque integral
+    is the difference of |P - r_j|^2 / 2 at the ends, its shape integrals use two-point
+    Gauss-Legendre on panels no longer than the contour spacing h.
+    """
+    dst[row, 0] -= fx
+    dst[row, 1] -= fy
+    ct = geo[j, 2]
+    st = geo[j, 3]
+    for c in range(nc):
+        ox = tb[tid, 3, c] - dx
+        oy = tb[tid, 4, c] - dy
+        r2 = ox * ox + oy * oy
+        inv = 1.0 / math.sqrt(max(r2, 1e-300))
+        tb[tid, 6, c] = math.atan2((oy * ct - ox * st) * inv, (ox * ct + oy * st) * inv)
+        tb[tid, 7, c] = 0.5 * r2
+    two_pi = 2.0 * math.pi
+    tq = 0.0
+    nq = 0
+    for c in range(nc):
+        if tb[tid, 5, c] > 0.0:
+            continue
+        psi = tb[tid, 6, c]
+        span = 4.0 * math.pi
+        nxt = c
+        for e in range(nc):
+            if e != c:
+                d = tb[tid, 6, e] - psi
+                if d <= 0.0:
+                    d += two_pi
+                if d < span:
+                    span = d
+                    nxt = e
+        if nxt == c:
+            continue
+        tq += tb[tid, 7, nxt] - tb[tid, 7, c]
+        n = max(1, int(math.ceil(span / h)))
+        w = span / n
+        for p in range(n):
+            mid = psi + (p + 0.5) * w
+            for q in range(2):
+                ang = mid + (2 * q - 1) * _G * w
+                tb[tid, 0, nq] = math.cos(ang)
+                tb[tid, 1, nq] = math.sin(ang)
+                tb[tid, 2, nq] = 0.5 * w
+                nq += 1
+    dst[row, 2] += tq
+    if nq > 0:
+        _shape_integrals(j, nq, a, b, geo, R0, tb, tid, dst, row)
+
+
+@njit(**NJIT)
+def arc_pair(i, j, dx, dy, k0, nseg, a, b, geo, R, px, py, R0, cphi, sphi, tb, tid,
+             own, orow, want_own, other, xrow, want_other):
+    """Integrate the overlap of cells i and j (j at offset (dx, dy)) over the contour of
+    cell i, and, from the same crossings, over the contour of j.
+
+    ``tb[tid, 6, m]`` and ``tb[tid, 7, m]`` hold the gap and h * dg/dphi at window point m
+    (contour index k0 + m, modulo K); segments m = 0 .. nseg - 1 join points m, m + 1.
+    ``R``, ``px``, ``py`` are the sampled radii and contour points of
+    :func:`fcsweep.kernels.contour.geometry`.  Adds i's arc integrals to ``own[orow]``
+    if ``want_own`` and j's to ``other[xrow]`` if ``want_other``.
+    """
+    K = cphi.shape[0]
+    h = 2.0 * math.pi / K
+    eps = DIP_MARGIN * R0 * (40.0 / K) ** 4
     fx = 0.0
     fy = 0.0
     tq = 0.0
     nq = 0
+    nc = 0
     for m in range(nseg):
         g0 = tb[tid, 6, m]
         g1 = tb[tid, 6, m + 1]
@@ -312,6 +390,7 @@ def arc_pair(i, j, dx, dy, k0, nseg, a, b, geo, R, px, py, R0, cphi, sphi, tb, t
         if in0 != in1:
             t = _root(0.0, 1.0, g0, g0, g1, m0, m1)
             t, x, y, r = polish(t, 0.0, 1.0, in0, i, j, k, h, dx, dy, a, b, geo, R0, cphi, sphi)
+            nc = _crossing(x, y, -1.0 if in0 else 1.0, nc, tb, tid)
             if in0:
                 tb_, xb, yb, rb = t, x, y, r
             else:
@@ -346,6 +425,8 @@ def arc_pair(i, j, dx, dy, k0, nseg, a, b, geo, R, px, py, R0, cphi, sphi, tb, t
                     sb = tc + (1.0 - tc) * gc / (gc - g1)
                 t, x, y, r = polish(sa, 0.0, tc, in0, i, j, k, h, dx, dy, a, b, geo, R0, cphi, sphi)
                 u, xu, yu, ru = polish(sb, tc, 1.0, not in0, i, j, k, h, dx, dy, a, b, geo, R0, cphi, sphi)
+                nc = _crossing(x, y, -1.0 if in0 else 1.0, nc, tb, tid)
+                nc = _crossing(xu, yu, 1.0 if in0 else -1.0, nc, tb, tid)
                 if in0:
                     f1, f2, f3, nq = _piece(k, 0.0, t, xa, ya, ra, x, y, r, h, cphi, sphi, tb, tid, nq)
                     fx += f1
@@ -359,8 +440,11 @@ def arc_pair(i, j, dx, dy, k0, nseg, a, b, geo, R, px, py, R0, cphi, sphi, tb, t
         fx += f1
         fy += f2
         tq += f3
-    acc[i, 0] += fx
-    acc[i, 1] += fy
-    acc[i, 2] += tq
-    if nq > 0:
-        _shape_integrals(i, nq, a, b, geo, R0, tb, tid, acc)
+    if want_own:
+        own[orow, 0] += fx
+        own[orow, 1] += fy
+        own[orow, 2] += tq
+        if nq > 0:
+            _shape_integrals(i, nq, a, b, geo, R0, tb, tid, own, orow)
+    if want_other:
+        _other_side(j, dx, dy, nc, fx, fy, a, b, geo, R0, h, tb, tid, other, xrow)

@@ -23,7 +23,7 @@ import math
 import numpy as np
 from numba import get_thread_id, njit, prange
 
-from .arcs import arc_pair
+from .arcs import arc_pair, may_touch
 from .fourier import fourier6, fourier_series, modes6
 from .options import NJIT
 
@@ -415,27 +415,30 @@ def pair_linear(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, 
 
 
 @njit(inline="always", **NJIT)
-def pair_arc(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tb, tid, acc):
-    """Contact-arc rule: exact arc integrals into acc[i] (see :mod:`.arcs`)."""
+def pair_arc(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tb, tid,
+             own, orow, want_own, other, xrow, want_other):
+    """Contact-arc rule for the pair (i, j), resolved on i's contour: i's arc integrals
+    into ``own[orow]`` and j's into ``other[xrow]`` (see :func:`.arcs.arc_pair`)."""
     k0, nseg = gap_window(i, j, dx, dy, True, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tb, tid)
-    arc_pair(i, j, dx, dy, k0, nseg, a, b, geo, R, px, py, R0, cphi, sphi, tb, tid, acc)
+    if may_touch(nseg, cphi.shape[0], R0, tb, tid):
+        arc_pair(i, j, dx, dy, k0, nseg, a, b, geo, R, px, py, R0, cphi, sphi, tb, tid,
+                 own, orow, want_own, other, xrow, want_other)
 
 
 @njit(inline="always", **NJIT)
 def pair_weights(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad, W, tb, tid, acc):
-    """Add the overlap of cell j onto cell i with the chosen rule.
+    """Add the overlap of cell j onto cell i with a point-weight rule, or rigid discs.
 
     ``(dx, dy)`` is r_j - r_i for the image of j being considered.  Binary and linear
-    rules add per-point weights to ``W[i]``; the arc rule and rigid discs add integrals
-    to ``acc[i]``.  ``tb[tid]`` is this thread's scratch.  One small function per rule,
-    so that each compiles (and vectorises) on its own.
+    rules add per-point weights to ``W[i]``; rigid discs add the lens force to
+    ``acc[i]``.  ``tb[tid]`` is this thread's scratch.  One small function per rule,
+    so that each compiles (and vectorises) on its own.  (The arc rule treats each pair
+    once, for both cells: :func:`pair_arc`.)
     """
     if a.shape[1] == 0:
         pair_disc(i, dx, dy, R0, acc)
     elif quad == QUAD_BINARY:
         pair_binary(i, j, dx, dy, a, b, geo, px, py, R0, W)
-    elif quad == QUAD_ARC:
-        pair_arc(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tb, tid, acc)
     else:
         pair_linear(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, W, tb, tid)
 
@@ -570,10 +573,24 @@ def cell_rates(i, a, b, geo, R, dR, px, py, cosn, sinn, cphi, sphi, W, acc, R0, 
         db[i, m] = -mu_shape * R0 * (us - b[i, m] / (2.0 * a0) * usum + n * vc)
 
 
+@njit(inline="always", **NJIT)
+def _min_image(dx, dy, Lx, Ly):
+    """Nearest image of an offset known to be shorter than a third of the box."""
+    if dx > 0.5 * Lx:
+        dx -= Lx
+    elif dx < -0.5 * Lx:
+        dx += Lx
+    if dy > 0.5 * Ly:
+        dy -= Ly
+    elif dy < -0.5 * Ly:
+        dy += Ly
+    return dx, dy
+
+
 @njit(parallel=True, **NJIT)
 def all_rates(pos, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shape, quad,
               cosn, sinn, cphi, sphi, R, dR, px, py, tx, ty, geo, W, tbuf, acc,
-              use_list, nbr, count, dpos, dth, da, db):
+              use_list, nbr, count, pairbuf, dpos, dth, da, db):
     """Deterministic rates of every cell (geometry must be current).
 
     With ``use_list`` the Verlet list ``nbr[i, :count[i]]`` (see :mod:`.verlet`) gives
@@ -581,8 +598,16 @@ def all_rates(pos, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shape, quad
     cell and every one of the 9 periodic images (or, for open boundaries, the direct
     pair only) is visited.  Each iteration writes only to row i, so the result does not
     depend on the number of threads.
+
+    The arc rule resolves each pair once, on the contour of its lower-index cell, and
+    derives the other cell's integrals from the same crossings (exact action-reaction).
+    With the list, cell i keeps j's share in ``pairbuf[i * cap + p]`` (``nbr[i, p] = j``)
+    and j collects it in a second pass; without it, the higher-index cell recomputes
+    the pair (small boxes only).
     """
     N = pos.shape[0]
+    arc = quad == QUAD_ARC and a.shape[1] > 0
+    cap = nbr.shape[1]
     for i in prange(N):
         tid = get_thread_id()
         for k in range(W.shape[1]):
@@ -595,22 +620,22 @@ def all_rates(pos, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shape, quad
         if use_list:
             for p in range(count[i]):
                 j = nbr[i, p]
-                dx = pos[j, 0] - xi
-                dy = pos[j, 1] - yi
+                if arc:
+                    if j < i:
+                        continue  # resolved by j; collected below
+                    for k in range(acc.shape[1]):
+                        pairbuf[i * cap + p, k] = 0.0
                 # list pairs are closer than a third of the box: one shift at most
-                if dx > 0.5 * Lx:
-                    dx -= Lx
-                elif dx < -0.5 * Lx:
-                    dx += Lx
-                if dy > 0.5 * Ly:
-                    dy -= Ly
-                elif dy < -0.5 * Ly:
-                    dy += Ly
+                dx, dy = _min_image(pos[j, 0] - xi, pos[j, 1] - yi, Lx, Ly)
                 cut = rbi + geo[j, 1]
                 if dx * dx + dy * dy >= cut * cut:
                     continue
-                pair_weights(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad,
-                             W, tbuf, tid, acc)
+                if arc:
+                    pair_arc(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tbuf, tid,
+                             acc, i, True, pairbuf, i * cap + p, True)
+                else:
+                    pair_weights(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad,
+                                 W, tbuf, tid, acc)
         else:
             nimg = 1 if periodic else 0
             for j in range(N):
@@ -623,7 +648,32 @@ def all_rates(pos, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shape, quad
                         cut = rbi + geo[j, 1]
                         if dx * dx + dy * dy >= cut * cut:
                             continue
-                        pair_weights(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad,
-                                     W, tbuf, tid, acc)
-        cell_rates(i, a, b, geo, R, dR, px, py, cosn, sinn, cphi, sphi, W, acc, R0, eta, v0, mu_theta,
-                   mu_shape, dpos, dth, da, db)
+                        if not arc:
+                            pair_weights(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad,
+                                         W, tbuf, tid, acc)
+                        elif i < j or (i == j and (sx > 0 or (sx == 0 and sy > 0))):
+                            # i resolves the pair (both shares of a self-image pair are i's)
+                            pair_arc(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tbuf, tid,
+                                     acc, i, True, acc, i, i == j)
+                        elif i != j:
+                            # j resolves it: recompute j's side and keep i's share
+                            pair_arc(j, i, -dx, -dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tbuf,
+                                     tid, acc, i, False, acc, i, True)
+        if not arc:
+            cell_rates(i, a, b, geo, R, dR, px, py, cosn, sinn, cphi, sphi, W, acc, R0, eta, v0, mu_theta,
+                       mu_shape, dpos, dth, da, db)
+    if arc:
+        # a second pass: cell_rates overwrites rows that pairs of other cells read above
+        for j in prange(N):
+            if use_list:
+                for p in range(count[j]):
+                    i = nbr[j, p]
+                    if i > j:
+                        break
+                    for q in range(count[i]):
+                        if nbr[i, q] == j:
+                            for k in range(acc.shape[1]):
+                                acc[j, k] += pairbuf[i * cap + q, k]
+                            break
+            cell_rates(j, a, b, geo, R, dR, px, py, cosn, sinn, cphi, sphi, W, acc, R0, eta, v0, mu_theta,
+                       mu_shape, dpos, dth, da, db)

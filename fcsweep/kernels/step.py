@@ -90,7 +90,7 @@ def compute_rates(pos, theta, a, b, prm, periodic, quad, tables, scratch, cl, nl
     cosn, sinn, cphi, sphi = tables
     R, dR, px, py, tx, ty, geo, W, tbuf, acc = scratch
     cell_of, cell_start, cell_members = cl
-    nbr, count, ref_pos, ref_rb, valid = nl
+    nbr, count, ref_pos, ref_rb, valid, pairbuf = nl
     dpos, dth, da, db = out
     R0 = prm[P_R0]
     geometry(theta, a, b, R0, cosn, sinn, cphi, sphi, R, dR, px, py, tx, ty, quad == QUAD_ARC, geo)
@@ -116,7 +116,7 @@ def compute_rates(pos, theta, a, b, prm, periodic, quad, tables, scratch, cl, nl
             valid[0] = 0
     all_rates(pos, a, b, Lx, Ly, periodic, R0, prm[P_ETA], prm[P_V0], prm[P_MUT], prm[P_MUS], quad,
               cosn, sinn, cphi, sphi, R, dR, px, py, tx, ty, geo, W, tbuf, acc,
-              use_list, nbr, count, dpos, dth, da, db)
+              use_list, nbr, count, pairbuf, dpos, dth, da, db)
     return True
 
 

@@ -43,20 +43,21 @@ class Workspace:
             side = 2.0 * R0 / math.sqrt(3.0) * 0.999
             ncell = min(int(box[0] // side + 1) * int(box[1] // side + 1), max(4 * N, 9))
         self.cl = (np.zeros(N, np.int64), np.zeros(ncell + 1, np.int64), np.zeros(N, np.int64))
-        self.nl = self._neighbour_list(N, 16)
+        self.nl = self.neighbour_list(16)
         self.out = (np.zeros((N, 2)), np.zeros(N), np.zeros((N, M1)), np.zeros((N, M1)))
         self.flags = np.zeros(N, np.int64)
 
-    @staticmethod
-    def _neighbour_list(N, capacity):
-        # (nbr, count, reference positions, reference bounding radii, valid flag)
+    def neighbour_list(self, capacity):
+        """(nbr, count, reference positions, reference bounding radii, valid flag, pair
+        buffer) for up to ``capacity`` neighbours per cell.  The pair buffer holds, for
+        the arc rule, the share of list pair (i, p) that cell nbr[i, p] collects."""
+        N = self.N
         return (np.zeros((N, capacity), np.int64), np.zeros(N, np.int64), np.zeros((N, 2)), np.zeros(N),
-                np.zeros(1, np.int64))
+                np.zeros(1, np.int64), np.zeros((N * capacity, 4 + 2 * self.M1)))
 
     def grow_neighbour_list(self):
         """Double the neighbour-list capacity (after a LIST_FULL status); forces a rebuild."""
-        N, cap = self.nl[0].shape
-        self.nl = self._neighbour_list(N, 2 * cap)
+        self.nl = self.neighbour_list(2 * self.nl[0].shape[1])
 
 
 #: Verlet skin in units of R0: lists are rebuilt after a cell moved ~skin/2.

@@ -244,25 +244,29 @@ class _Contour:
 
 def _arc_pieces(c, phi_k, h, g0, g1, m0, m1, end0, end1, eps):
     """Inside pieces [(t1, x1, R1, t2, x2, R2)] of the segment phi_k + h [0, 1] of the
-    contour ``c`` relative to its neighbour (see :func:`arc_integrals`)."""
+    contour ``c`` relative to its neighbour, and the crossings [(x, kind)] among their
+    ends (kind +1 where the contour enters the neighbour, -1 where it leaves); see
+    :func:`arc_integrals`."""
     in0, in1 = g0 > 0, g1 > 0
     if in0 != in1:
         t0 = _cubic_roots(g0, g1, m0, m1, 0.0, 1.0)
         t, x, R = c.root(phi_k, h, t0[0] if t0 else 0.5, 0.0, 1.0, in0)
-        return [(0.0, *end0, t, x, R)] if in0 else [(t, x, R, 1.0, *end1)]
+        if in0:
+            return [(0.0, *end0, t, x, R)], [(x, -1)]
+        return [(t, x, R, 1.0, *end1)], [(x, 1)]
     full = [(0.0, *end0, 1.0, *end1)] if in0 else []
     A, B = m0 - (g1 - g0), m1 - (g1 - g0)
     if in0 and min(g0, g1) - 0.25 * max(-A, B, 0.0) > eps:
-        return full
+        return full, []
     if not in0 and max(g0, g1) + 0.25 * max(A, -B, 0.0) <= -eps:
-        return full
+        return full, []
     ext = _cubic_extremum(g0, g1, m0, m1, in0)
     if ext is None or (ext[1] >= eps if in0 else ext[1] <= -eps):
-        return full
+        return full, []
     tc, pc = ext
     gc = c.gap(phi_k + h * tc)[0][0]
     if (gc > 0) == in0:
-        return full
+        return full, []
     if (pc > 0) != in0:
         sa = _cubic_roots(g0, g1, m0, m1, 0.0, tc)[-1]
         sb = _cubic_roots(g0, g1, m0, m1, tc, 1.0)[0]
@@ -272,35 +276,75 @@ def _arc_pieces(c, phi_k, h, g0, g1, m0, m1, end0, end1, eps):
     ta, xa, Ra = c.root(phi_k, h, sa, 0.0, tc, in0)
     tb, xb, Rb = c.root(phi_k, h, sb, tc, 1.0, not in0)
     if in0:
-        return [(0.0, *end0, ta, xa, Ra), (tb, xb, Rb, 1.0, *end1)]
-    return [(ta, xa, Ra, tb, xb, Rb)]
+        return [(0.0, *end0, ta, xa, Ra), (tb, xb, Rb, 1.0, *end1)], [(xa, -1), (xb, 1)]
+    return [(ta, xa, Ra, tb, xb, Rb)], [(xa, 1), (xb, -1)]
+
+
+def _shape_sums(phi, w, a, b, R0):
+    """Gauss sums [R, R cos n phi, R sin n phi] of one cell over nodes ``phi`` (weights ``w``)."""
+    n = mode_numbers(a.shape[0])
+    Rg, _ = radius(phi, a, b, R0)
+    return np.concatenate([[np.sum(w * Rg)], np.cos(np.multiply.outer(n, phi)) @ (w * Rg),
+                           np.sin(np.multiply.outer(n, phi)) @ (w * Rg)])
+
+
+def _other_side(crossings, rij, theta_j, a_j, b_j, h, R0):
+    """Cell j's arc integrals [torque, shape sums] over its arcs inside i, from the
+    crossings found on i's contour (positions relative to r_i): each arc runs
+    counter-clockwise from a crossing where i's contour leaves j to the next crossing
+    along j's contour; panels no longer than h, two Gauss points each."""
+    d = np.array([x - rij for x, _ in crossings])
+    psi = np.arctan2(d[:, 1], d[:, 0]) - theta_j
+    half_r2 = 0.5 * np.sum(d * d, axis=1)
+    out = np.zeros(1 + 1 + 2 * a_j.shape[0])
+    for c, (_, kind) in enumerate(crossings):
+        if kind > 0 or len(crossings) < 2:
+            continue
+        gaps = np.mod(psi - psi[c], 2 * np.pi)
+        gaps[c] = np.inf
+        gaps[gaps <= 0] = 2 * np.pi
+        e = int(np.argmin(gaps))
+        span = gaps[e]
+        out[0] += half_r2[e] - half_r2[c]
+        n = max(1, int(np.ceil(span / h)))
+        w = span / n
+        mids = psi[c] + (np.arange(n) + 0.5) * w
+        nodes = (mids[:, None] + np.array([-1.0, 1.0]) * w * 0.5 / np.sqrt(3.0)).ravel()
+        out[1:] += _shape_sums(nodes, 0.5 * w, a_j, b_j, R0)
+    return out
+
+
+def _owner(i, j, shift):
+    """True for one of the two instances (i, j, shift), (j, i, -shift) of a pair."""
+    return i < j or (i == j and (shift[0] > 0 or (shift[0] == 0 and shift[1] > 0)))
 
 
 def arc_integrals(pos, theta, a, b, *, box=None, R0=1.0, contour_points=40):
     """Overlap integrals of the contact-arc rule, the numpy twin of :mod:`fcsweep.kernels.arcs`.
 
-    For every contour segment of cell i the radial gap g to each neighbour j and its
-    derivative dg/dphi = R_j'(psi) dpsi/dphi - d.t/|d| (t = dx_i/dphi) at the two ends
-    define a cubic Hermite interpolant.  It locates the crossings of the two contours
-    (solved on the true gap by bracketed Newton) and shallow contacts between sample
-    points (confirmed on the true gap at the cubic's extremum).  On each inside piece the
-    force and torque integrals are exact end-point differences (the chord turned by 90
-    degrees; R^2/2), the shape integrals two-point Gauss-Legendre.  Returns
-    (N, 4 + 2(M-1)) as in :func:`rates_from_occupancy`.
+    Each pair is resolved once, on the contour of cell i (i < j).  For every contour
+    segment of i the radial gap g to j and its derivative dg/dphi = R_j'(psi) dpsi/dphi
+    - d.t/|d| (t = dx_i/dphi) at the two ends define a cubic Hermite interpolant.  It
+    locates the crossings of the two contours (solved on the true gap by bracketed
+    Newton) and shallow contacts between sample points (confirmed on the true gap at the
+    cubic's extremum).  On each inside piece the force and torque integrals are exact
+    end-point differences (the chord turned by 90 degrees; R^2/2), the shape integrals
+    two-point Gauss-Legendre.  Cell j gets minus i's force, and its torque and shape
+    integrals over its own arcs between the same crossings (:func:`_other_side`).
+    Returns (N, 4 + 2(M-1)) as in :func:`rates_from_occupancy`.
     """
     N, M1 = a.shape
     K = int(contour_points)
     h = 2.0 * np.pi / K
     eps = DIP_MARGIN * R0 * (40.0 / K) ** 4
     phi = h * np.arange(K + 1)
-    n = mode_numbers(M1)
     Rb = R0 * (a0_of(a, b) + amplitude_sum(a, b))
     out = np.zeros((N, 4 + 2 * M1))
     nodes = 0.5 + np.array([-0.5, 0.5]) / np.sqrt(3.0)
     for i in range(N):
-        for j in range(N):
+        for j in range(i, N):
             for shift in _images(box):
-                if i == j and not shift.any():
+                if not _owner(i, j, shift):
                     continue
                 rij = pos[j] + shift - pos[i]
                 if np.hypot(*rij) >= Rb[i] + Rb[j]:
@@ -308,19 +352,22 @@ def arc_integrals(pos, theta, a, b, *, box=None, R0=1.0, contour_points=40):
                 c = _Contour(theta[i], a[i], b[i], rij, theta[j], a[j], b[j], R0)
                 g, dg, x, _, R, _ = c.gap(phi)
                 slope = h * dg
+                own = np.zeros(4 + 2 * M1)
+                crossings = []
                 for k in range(K):
-                    pieces = _arc_pieces(c, phi[k], h, g[k], g[k + 1], slope[k], slope[k + 1],
-                                         (x[k], R[k]), (x[k + 1], R[k + 1]), eps)
+                    pieces, cross = _arc_pieces(c, phi[k], h, g[k], g[k + 1], slope[k], slope[k + 1],
+                                                (x[k], R[k]), (x[k + 1], R[k + 1]), eps)
+                    crossings += cross
                     for t1, x1, R1, t2, x2, R2 in pieces:
-                        out[i, 0] -= x2[1] - x1[1]
-                        out[i, 1] += x2[0] - x1[0]
-                        out[i, 2] += 0.5 * (R2 * R2 - R1 * R1)
+                        own[0] -= x2[1] - x1[1]
+                        own[1] += x2[0] - x1[0]
+                        own[2] += 0.5 * (R2 * R2 - R1 * R1)
                         ph = phi[k] + h * (t1 + (t2 - t1) * nodes)
-                        w = 0.5 * (t2 - t1) * h
-                        Rg, _ = radius(ph, a[i], b[i], R0)
-                        out[i, 3] += w * np.sum(Rg)
-                        out[i, 4:4 + M1] += w * (np.cos(np.multiply.outer(n, ph)) @ Rg)
-                        out[i, 4 + M1:] += w * (np.sin(np.multiply.outer(n, ph)) @ Rg)
+                        own[3:] += _shape_sums(ph, 0.5 * (t2 - t1) * h, a[i], b[i], R0)
+                out[i] += own
+                out[j, 0:2] -= own[0:2]
+                if crossings:
+                    out[j, 2:] += _other_side(crossings, rij, theta[j], a[j], b[j], h, R0)
     return out
 
 
