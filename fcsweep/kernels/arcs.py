@@ -308,16 +308,11 @@ def _other_side(j, dx, dy, nc, fx, fy, a, b, geo, R0, h, tb, tid, dst, row):
     ct = geo[j, 2]
     st = geo[j, 3]
     for c in range(nc):
-        # rows 3, 4 become the crossing's direction (cos psi, sin psi) in j's body frame
         ox = tb[tid, 3, c] - dx
         oy = tb[tid, 4, c] - dy
         r2 = ox * ox + oy * oy
         inv = 1.0 / math.sqrt(max(r2, 1e-300))
-        cj = (ox * ct + oy * st) * inv
-        sj = (oy * ct - ox * st) * inv
-        tb[tid, 3, c] = cj
-        tb[tid, 4, c] = sj
-        tb[tid, 6, c] = math.atan2(sj, cj)
+        tb[tid, 6, c] = math.atan2((oy * ct - ox * st) * inv, (ox * ct + oy * st) * inv)
         tb[tid, 7, c] = 0.5 * r2
     two_pi = 2.0 * math.pi
     tq = 0.0
@@ -341,18 +336,12 @@ def _other_side(j, dx, dy, nc, fx, fy, a, b, geo, R0, h, tb, tid, dst, row):
         tq += tb[tid, 7, nxt] - tb[tid, 7, c]
         n = max(1, int(math.ceil(span / h)))
         w = span / n
-        cj = tb[tid, 3, c]
-        sj = tb[tid, 4, c]
         for p in range(n):
+            mid = psi + (p + 0.5) * w
             for q in range(2):
-                off = (p + 0.5 + (2 * q - 1) * _G) * w
-                if off <= 0.3:  # Taylor error below 1e-15 here; no libm calls
-                    co, so = _cos_sin_small(off)
-                else:
-                    co = math.cos(off)
-                    so = math.sin(off)
-                tb[tid, 0, nq] = cj * co - sj * so
-                tb[tid, 1, nq] = sj * co + cj * so
+                ang = mid + (2 * q - 1) * _G * w
+                tb[tid, 0, nq] = math.cos(ang)
+                tb[tid, 1, nq] = math.sin(ang)
                 tb[tid, 2, nq] = 0.5 * w
                 nq += 1
     dst[row, 2] += tq
@@ -361,8 +350,7 @@ def _other_side(j, dx, dy, nc, fx, fy, a, b, geo, R0, h, tb, tid, dst, row):
 
 
 @njit(**NJIT)
-def arc_pair(i, j, dx, dy, k0, nseg, a, b, geo, R, px, py, R0, cphi, sphi, tb, tid,
-             own, orow, want_own, other, xrow, want_other):
+def arc_pair(i, j, dx, dy, k0, nseg, a, b, geo, R, px, py, R0, cphi, sphi, tb, tid, own, orow, other, xrow):
     """Integrate the overlap of cells i and j (j at offset (dx, dy)) over the contour of
     cell i, and, from the same crossings, over the contour of j.
 
@@ -370,7 +358,8 @@ def arc_pair(i, j, dx, dy, k0, nseg, a, b, geo, R, px, py, R0, cphi, sphi, tb, t
     (contour index k0 + m, modulo K); segments m = 0 .. nseg - 1 join points m, m + 1.
     ``R``, ``px``, ``py`` are the sampled radii and contour points of
     :func:`fcsweep.kernels.contour.geometry`.  Adds i's arc integrals to ``own[orow]``
-    if ``want_own`` and j's to ``other[xrow]`` if ``want_other``.
+    and j's to ``other[xrow]``.  (No boolean switches: numba compiles a function once
+    per combination of literal arguments, and this one takes a minute.)
     """
     K = cphi.shape[0]
     h = 2.0 * math.pi / K
@@ -455,11 +444,10 @@ def arc_pair(i, j, dx, dy, k0, nseg, a, b, geo, R, px, py, R0, cphi, sphi, tb, t
         fx += f1
         fy += f2
         tq += f3
-    if want_own:
-        own[orow, 0] += fx
-        own[orow, 1] += fy
-        own[orow, 2] += tq
-        if nq > 0:
-            _shape_integrals(i, nq, a, b, geo, R0, tb, tid, own, orow)
-    if want_other:
+    own[orow, 0] += fx
+    own[orow, 1] += fy
+    own[orow, 2] += tq
+    if nq > 0:
+        _shape_integrals(i, nq, a, b, geo, R0, tb, tid, own, orow)
+    if nc > 0:
         _other_side(j, dx, dy, nc, fx, fy, a, b, geo, R0, h, tb, tid, other, xrow)

@@ -415,14 +415,19 @@ def pair_linear(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, 
 
 
 @njit(inline="always", **NJIT)
-def pair_arc(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tb, tid,
-             own, orow, want_own, other, xrow, want_other):
+def pair_arc(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tb, tid, own, orow, other, xrow):
     """Contact-arc rule for the pair (i, j), resolved on i's contour: i's arc integrals
     into ``own[orow]`` and j's into ``other[xrow]`` (see :func:`.arcs.arc_pair`)."""
     k0, nseg = gap_window(i, j, dx, dy, True, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tb, tid)
     if may_touch(nseg, cphi.shape[0], R0, tb, tid):
-        arc_pair(i, j, dx, dy, k0, nseg, a, b, geo, R, px, py, R0, cphi, sphi, tb, tid,
-                 own, orow, want_own, other, xrow, want_other)
+        arc_pair(i, j, dx, dy, k0, nseg, a, b, geo, R, px, py, R0, cphi, sphi, tb, tid, own, orow, other, xrow)
+
+
+@njit(**NJIT)
+def pair_arc_call(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tb, tid, own, orow, other, xrow):
+    """:func:`pair_arc` as a called function, for the all-image path (small or open
+    boxes): each inlined copy of the rule costs about a minute of compilation."""
+    pair_arc(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tb, tid, own, orow, other, xrow)
 
 
 @njit(inline="always", **NJIT)
@@ -608,7 +613,8 @@ def all_rates(pos, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shape, quad
     N = pos.shape[0]
     arc = quad == QUAD_ARC and a.shape[1] > 0
     cap = nbr.shape[1]
-    for i in prange(N):
+    for ii in prange(N):
+        i = np.int64(ii)  # prange indices are unsigned: one type for i and j, one compilation
         tid = get_thread_id()
         for k in range(W.shape[1]):
             W[i, k] = 0.0
@@ -632,7 +638,7 @@ def all_rates(pos, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shape, quad
                     continue
                 if arc:
                     pair_arc(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tbuf, tid,
-                             acc, i, True, pairbuf, i * cap + p, True)
+                             acc, i, pairbuf, i * cap + p)
                 else:
                     pair_weights(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad,
                                  W, tbuf, tid, acc)
@@ -651,29 +657,31 @@ def all_rates(pos, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shape, quad
                         if not arc:
                             pair_weights(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad,
                                          W, tbuf, tid, acc)
-                        elif i < j or (i == j and (sx > 0 or (sx == 0 and sy > 0))):
-                            # i resolves the pair (both shares of a self-image pair are i's)
-                            pair_arc(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tbuf, tid,
-                                     acc, i, True, acc, i, i == j)
-                        elif i != j:
-                            # j resolves it: recompute j's side and keep i's share
-                            pair_arc(j, i, -dx, -dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tbuf,
-                                     tid, acc, i, False, acc, i, True)
-        if not arc:
-            cell_rates(i, a, b, geo, R, dR, px, py, cosn, sinn, cphi, sphi, W, acc, R0, eta, v0, mu_theta,
-                       mu_shape, dpos, dth, da, db)
-    if arc:
-        # a second pass: cell_rates overwrites rows that pairs of other cells read above
-        for j in prange(N):
-            if use_list:
-                for p in range(count[j]):
-                    i = nbr[j, p]
-                    if i > j:
+                        elif j != i:
+                            # the lower index resolves the pair; the other recomputes it
+                            # (pairbuf row i takes the share that is not i's)
+                            if i < j:
+                                pair_arc_call(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0,
+                                              tbuf, tid, acc, i, pairbuf, i)
+                            else:
+                                pair_arc_call(j, i, -dx, -dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0,
+                                              tbuf, tid, pairbuf, i, acc, i)
+                        elif sx > 0 or (sx == 0 and sy > 0):
+                            # one of the two instances of a pair with its own image: both shares
+                            pair_arc_call(i, i, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tbuf,
+                                          tid, acc, i, acc, i)
+    # a second pass: cell_rates overwrites rows that pairs of other cells read above
+    for jj in prange(N):
+        j = np.int64(jj)
+        if arc and use_list:
+            for p in range(count[j]):
+                i = nbr[j, p]
+                if i > j:
+                    break
+                for q in range(count[i]):
+                    if nbr[i, q] == j:
+                        for k in range(acc.shape[1]):
+                            acc[j, k] += pairbuf[i * cap + q, k]
                         break
-                    for q in range(count[i]):
-                        if nbr[i, q] == j:
-                            for k in range(acc.shape[1]):
-                                acc[j, k] += pairbuf[i * cap + q, k]
-                            break
-            cell_rates(j, a, b, geo, R, dR, px, py, cosn, sinn, cphi, sphi, W, acc, R0, eta, v0, mu_theta,
-                       mu_shape, dpos, dth, da, db)
+        cell_rates(j, a, b, geo, R, dR, px, py, cosn, sinn, cphi, sphi, W, acc, R0, eta, v0, mu_theta,
+                   mu_shape, dpos, dth, da, db)
