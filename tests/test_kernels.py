@@ -35,8 +35,9 @@ def test_kernel_equals_numpy_twin(quadrature, N, M1, deform):
 
 
 def test_kernel_equals_twin_with_open_boundaries_and_other_K():
+    """K = 24, 64 take the folded mode sums (K divisible by 4), K = 30 the plain ones."""
     pos, theta, a, b, _ = dense_config(16, seed=5)
-    for K in (24, 64):
+    for K in (24, 30, 64):
         kw = dict(eta=0.02, v0=0.0, box=None, contour_points=K, quadrature="binary")
         assert_same(rates(pos, theta, a, b, **kw), kernel_rates(pos, theta, a, b, **kw))
 

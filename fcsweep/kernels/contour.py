@@ -522,6 +522,62 @@ def _mode_sums(u, v, ui, cosn, sinn, m, K):
 
 
 @njit(inline="always", **NJIT)
+def _fold_quarters(x, ui, K, out, off):
+    """Fold the row ``x[ui, :K]`` onto the first quarter of the contour for the mode sums
+    (K divisible by 4, H = K/4): for k = 1 .. H-1, with e = x_k + x_{K-k},
+    d = x_k - x_{K-k} and e', d' the same for the points K/2 - k and K/2 + k, write
+    e + e', e - e', d + d', d - d' to ``out[ui, off + q (H-1) + k - 1]``, q = 0..3.
+
+    Because cos n phi and sin n phi are even / odd under phi -> -phi and pick up (-1)^n
+    under phi -> pi - phi, a mode sum over the K points is a sum over these H - 1 folded
+    values plus the four points on the axes (:func:`_folded_mode_sums`): a quarter of
+    the multiply-adds, which do not vectorise (the sums keep a fixed order).
+    """
+    H = K // np.uint64(4)
+    K2 = K // np.uint64(2)
+    n = H - np.uint64(1)
+    for q in range(n):
+        k = q + np.uint64(1)
+        e = x[ui, k] + x[ui, K - k]
+        d = x[ui, k] - x[ui, K - k]
+        e2 = x[ui, K2 - k] + x[ui, K2 + k]
+        d2 = x[ui, K2 - k] - x[ui, K2 + k]
+        out[ui, off + q] = e + e2
+        out[ui, off + n + q] = e - e2
+        out[ui, off + np.uint64(2) * n + q] = d + d2
+        out[ui, off + np.uint64(3) * n + q] = d - d2
+
+
+@njit(inline="always", **NJIT)
+def _folded_mode_sums(u, v, f, ui, cosn, sinn, m, K):
+    """:func:`_mode_sums` from the rows folded by :func:`_fold_quarters` (u's folds in
+    ``u[ui, K:]``, v's in ``f[ui, :]``) and the four points on the axes."""
+    H = K // np.uint64(4)
+    K2 = K // np.uint64(2)
+    H3 = np.uint64(3) * H
+    n = H - np.uint64(1)
+    even = m % 2 == 0  # mode number m + 2
+    cu = K if even else K + n  # e + e' for even modes, e - e' for odd
+    su = K + np.uint64(3) * n if even else K + np.uint64(2) * n  # d - d' for even, d + d' for odd
+    cv = np.uint64(0) if even else n
+    sv = np.uint64(3) * n if even else np.uint64(2) * n
+    z = np.uint64(0)
+    uc = (u[ui, z] * cosn[m, z] + u[ui, K2] * cosn[m, K2]) + (u[ui, H] * cosn[m, H] + u[ui, H3] * cosn[m, H3])
+    us = (u[ui, z] * sinn[m, z] + u[ui, K2] * sinn[m, K2]) + (u[ui, H] * sinn[m, H] + u[ui, H3] * sinn[m, H3])
+    vc = (v[ui, z] * cosn[m, z] + v[ui, K2] * cosn[m, K2]) + (v[ui, H] * cosn[m, H] + v[ui, H3] * cosn[m, H3])
+    vs = (v[ui, z] * sinn[m, z] + v[ui, K2] * sinn[m, K2]) + (v[ui, H] * sinn[m, H] + v[ui, H3] * sinn[m, H3])
+    for q in range(n):
+        k = q + np.uint64(1)
+        c = cosn[m, k]
+        s = sinn[m, k]
+        uc += u[ui, cu + q] * c
+        us += u[ui, su + q] * s
+        vc += f[ui, cv + q] * c
+        vs += f[ui, sv + q] * s
+    return uc, us, vc, vs
+
+
+@njit(inline="always", **NJIT)
 def cell_rates(i, a, b, geo, R, dR, px, py, cosn, sinn, cphi, sphi, W, acc, R0, eta, v0, mu_theta, mu_shape,
                dpos, dth, da, db):
     """Rates of cell i from its point weights ``W[i]`` and arc integrals ``acc[i]``.
@@ -569,9 +625,16 @@ def cell_rates(i, a, b, geo, R, dR, px, py, cosn, sinn, cphi, sphi, W, acc, R0, 
     dpos[i, 1] = v0 * s + fy * dphi + acc[i, 1]
     dth[i] = mu_theta * (tq * dphi + acc[i, 2])
     usum += acc[i, 3]
+    folded = K % np.uint64(4) == 0 and K >= np.uint64(8)
+    if folded:  # px[i] is free now that its sum is taken
+        _fold_quarters(W, ui, K, W, K)
+        _fold_quarters(R, ui, K, px, np.uint64(0))
     for m in range(M1):
         n = m + 2.0
-        uc, us, vc, vs = _mode_sums(W, R, ui, cosn, sinn, m, K)
+        if folded:
+            uc, us, vc, vs = _folded_mode_sums(W, R, px, ui, cosn, sinn, m, K)
+        else:
+            uc, us, vc, vs = _mode_sums(W, R, ui, cosn, sinn, m, K)
         uc += acc[i, 4 + m]
         us += acc[i, 4 + M1 + m]
         da[i, m] = -mu_shape * R0 * (uc - a[i, m] / (2.0 * a0) * usum - n * vs)
