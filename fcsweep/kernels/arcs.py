@@ -335,6 +335,9 @@ def _other_side(j, dx, dy, nc, fx, fy, a, b, geo, R0, h, tb, tid, dst, row):
             continue
         tq += tb[tid, 7, nxt] - tb[tid, 7, c]
         n = max(1, int(math.ceil(span / h)))
+        if nq + 2 * n > tb.shape[2]:
+            # only if the crossings do not alternate (arcs then overlap): keep in bounds
+            break
         w = span / n
         for p in range(n):
             mid = psi + (p + 0.5) * w
