@@ -88,7 +88,8 @@ def main(argv=None) -> int:
     cluster = make_cluster(args)
     try:
         if args.dry_run:
-            print(cluster.job_script() if hasattr(cluster, "job_script") else f"LocalCluster {cluster.scheduler_address}")
+            local = f"LocalCluster {cluster.scheduler_address}"
+            print(cluster.job_script() if hasattr(cluster, "job_script") else local)
             return 0
         if not args.local:
             cluster.scale(jobs=args.jobs)
