@@ -379,7 +379,9 @@ def gap_window(i, j, dx, dy, slopes, a, b, geo, R, dR, px, py, tx, ty, cphi, sph
             k0 += K
         nseg = cnt + 1
     if a.shape[1] <= 5:
-        window_gaps6(i, j, dx, dy, k0, nseg + 1, slopes, a, b, geo, px, py, tx, ty, R0, 2.0 * math.pi / K, tb, tid)
+        # padded to whole vector blocks (the extra points are never read): no scalar tail
+        window_gaps6(i, j, dx, dy, k0, (nseg + LANES) // LANES * LANES, slopes, a, b, geo, px, py, tx, ty, R0,
+                     2.0 * math.pi / K, tb, tid)
     else:
         window_gaps_generic(i, j, dx, dy, k0, nseg + 1, slopes, a, b, geo, R, dR, px, py, cphi, sphi,
                             R0, tb, tid)
