@@ -492,35 +492,17 @@ def _sums4(x0, x1, x2, x3, ui, K):
 @njit(inline="always", **NJIT)
 def _mode_sums(u, v, ui, cosn, sinn, m, K):
     """(sum u_k cos n phi_k, sum u_k sin, sum v_k cos, sum v_k sin) over k < K for the
-    mode row m of the tables, in the fixed order of :func:`_sums4`."""
-    p0 = p1 = p2 = p3 = 0.0
-    q0 = q1 = q2 = q3 = 0.0
-    r0 = r1 = r2 = r3 = 0.0
-    t0 = t1 = t2 = t3 = 0.0
-    K4 = K - K % np.uint64(4)
-    for k in range(np.uint64(0), K4, np.uint64(4)):
-        p0 += u[ui, k] * cosn[m, k]
-        p1 += u[ui, k + 1] * cosn[m, k + 1]
-        p2 += u[ui, k + 2] * cosn[m, k + 2]
-        p3 += u[ui, k + 3] * cosn[m, k + 3]
-        q0 += u[ui, k] * sinn[m, k]
-        q1 += u[ui, k + 1] * sinn[m, k + 1]
-        q2 += u[ui, k + 2] * sinn[m, k + 2]
-        q3 += u[ui, k + 3] * sinn[m, k + 3]
-        r0 += v[ui, k] * cosn[m, k]
-        r1 += v[ui, k + 1] * cosn[m, k + 1]
-        r2 += v[ui, k + 2] * cosn[m, k + 2]
-        r3 += v[ui, k + 3] * cosn[m, k + 3]
-        t0 += v[ui, k] * sinn[m, k]
-        t1 += v[ui, k + 1] * sinn[m, k + 1]
-        t2 += v[ui, k + 2] * sinn[m, k + 2]
-        t3 += v[ui, k + 3] * sinn[m, k + 3]
-    for k in range(K4, K):
-        p0 += u[ui, k] * cosn[m, k]
-        q0 += u[ui, k] * sinn[m, k]
-        r0 += v[ui, k] * cosn[m, k]
-        t0 += v[ui, k] * sinn[m, k]
-    return (p0 + p1) + (p2 + p3), (q0 + q1) + (q2 + q3), (r0 + r1) + (r2 + r3), (t0 + t1) + (t2 + t3)
+    mode row m of the tables, in order of k: the fallback of :func:`_folded_mode_sums`
+    when K is not divisible by 4."""
+    uc = us = vc = vs = 0.0
+    for k in range(K):
+        c = cosn[m, k]
+        s = sinn[m, k]
+        uc += u[ui, k] * c
+        us += u[ui, k] * s
+        vc += v[ui, k] * c
+        vs += v[ui, k] * s
+    return uc, us, vc, vs
 
 
 @njit(inline="always", **NJIT)
