@@ -24,7 +24,7 @@ import numpy as np
 from . import __version__
 from .kernels.step import LIST_FULL, NONFINITE, OK, run_chunk
 from .kernels.api import param_vector
-from .kernels.workspace import Workspace, quadrature_code
+from .kernels.workspace import quadrature_code, workspace_for
 from .model.lattice import hexagonal_lattice, lattice_box
 from .model.shape import ADMISSIBLE_BOUND, PROJECTION_MARGIN
 
@@ -135,7 +135,7 @@ class Simulation:
         self.state = state
         self.rng = rng
         M1 = max(params.modes - 1, 0)
-        self._ws = Workspace(params.N, params.contour_points, M1, params.box, params.R0)
+        self._ws = workspace_for(params.N, params.contour_points, M1, params.box, params.R0, params.quadrature)
         self._periodic = True
         self._quad = quadrature_code(params.quadrature)
         self._warned_pinned = False

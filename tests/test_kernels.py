@@ -42,6 +42,23 @@ def test_kernel_equals_twin_with_open_boundaries_and_other_K():
         assert_same(rates(pos, theta, a, b, **kw), kernel_rates(pos, theta, a, b, **kw))
 
 
+def test_pair_buffer_is_allocated_for_the_arc_rule_only():
+    """Binary and linear workspaces carry no pair buffer and give the same rates as one
+    that has it; the arc rule refuses a workspace without it (it would write past it)."""
+    from fcsweep.kernels.workspace import Workspace, workspace_for
+
+    pos, theta, a, b, box = dense_config(144, seed=3)
+    for quad in ("binary", "linear"):
+        ws = workspace_for(144, 40, a.shape[1], box, 1.0, quad)
+        assert ws.nl[5].shape[0] == 0
+        kw = dict(eta=0.05, v0=0.03, box=box, quadrature=quad)
+        assert_same(kernel_rates(pos, theta, a, b, workspace=ws, **kw), kernel_rates(pos, theta, a, b, **kw), 0.0)
+    assert workspace_for(144, 40, a.shape[1], box, 1.0, "arc").nl[5].shape[0] == 144 * 16
+    with pytest.raises(ValueError, match="pair_buffer"):
+        kernel_rates(pos, theta, a, b, eta=0.05, v0=0.03, box=box, quadrature="arc",
+                     workspace=Workspace(144, 40, a.shape[1], box, pair_buffer=False))
+
+
 def test_atan2_fast_error_below_window_margin():
     rng = np.random.default_rng(0)
     y, x = rng.normal(size=(2, 100000))

@@ -6,7 +6,7 @@ import numpy as np
 
 from .step import (P_DMAX, P_DT, P_ETA, P_LX, P_LY, P_MUS, P_MUT, P_NOISE, P_R0, P_SKIN, P_SMAX, P_V0,
                    compute_rates)
-from .workspace import SKIN, Workspace, quadrature_code
+from .workspace import SKIN, quadrature_code, workspace_for
 
 
 def param_vector(*, box, R0, eta, v0, mu_theta, mu_shape, dt=0.0, noise_amp=0.0, smax=np.inf, dmax=np.inf):
@@ -39,7 +39,9 @@ def kernel_rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, contour_points=
     theta = np.ascontiguousarray(theta, dtype=float).reshape(N)
     a = np.ascontiguousarray(a, dtype=float).reshape(N, -1)
     b = np.ascontiguousarray(b, dtype=float).reshape(N, -1)
-    ws = workspace or Workspace(N, contour_points, a.shape[1], box, R0)
+    ws = workspace or workspace_for(N, contour_points, a.shape[1], box, R0, quadrature)
+    if quadrature == "arc" and a.shape[1] > 0 and not ws.pair_buffer:
+        raise ValueError("the arc quadrature needs a Workspace with pair_buffer=True")
     prm = param_vector(box=box, R0=R0, eta=eta, v0=v0, mu_theta=mu_theta, mu_shape=mu_shape)
     pos = wrap_positions(pos, box)
     ws.nl[4][0] = 0  # positions are new: rebuild the neighbour list

@@ -19,10 +19,14 @@ class Workspace:
     box : (Lx, Ly) or None
         Sizes the cell-list arrays; ``None`` for open boundaries.
     R0 : float
+    pair_buffer : bool
+        Allocate the per-pair buffer the arc rule needs (N x list capacity x (4 + 2 M1)
+        doubles: 18 MB at N = 10^4); the other rules never read it.
     """
 
-    def __init__(self, N, K, M1, box, R0=1.0):
+    def __init__(self, N, K, M1, box, R0=1.0, pair_buffer=True):
         self.N, self.K, self.M1 = int(N), int(K), int(M1)
+        self.pair_buffer = bool(pair_buffer)
         self.tables = mode_tables(self.K, self.M1)
         self.scratch = (
             np.zeros((N, K)),  # R
@@ -52,8 +56,9 @@ class Workspace:
         buffer) for up to ``capacity`` neighbours per cell.  The pair buffer holds, for
         the arc rule, the share of list pair (i, p) that cell nbr[i, p] collects."""
         N = self.N
+        rows = N * capacity if self.pair_buffer else 0
         return (np.zeros((N, capacity), np.int64), np.zeros(N, np.int64), np.zeros((N, 2)), np.zeros(N),
-                np.zeros(1, np.int64), np.zeros((N * capacity, 4 + 2 * self.M1)))
+                np.zeros(1, np.int64), np.zeros((rows, 4 + 2 * self.M1)))
 
     def grow_neighbour_list(self):
         """Double the neighbour-list capacity (after a LIST_FULL status); forces a rebuild."""
@@ -62,6 +67,11 @@ class Workspace:
 
 #: Verlet skin in units of R0: lists are rebuilt after a cell moved ~skin/2.
 SKIN = 0.3
+
+
+def workspace_for(N, K, M1, box, R0, quadrature):
+    """A :class:`Workspace` for one quadrature: the pair buffer only for the arc rule."""
+    return Workspace(N, K, M1, box, R0, pair_buffer=quadrature_code(quadrature) == QUADRATURE_CODES["arc"])
 
 
 def quadrature_code(name):
