@@ -95,6 +95,14 @@ def simulate(config, output, workers, executor, scheduler, task_index, retry_fai
     except IndexError as exc:
         click.echo(f"fcsweep: {exc}", err=True)
         sys.exit(2)
+    if executor == "process":
+        from fcsweep.sweep.executors import worker_layout
+
+        processes, _ = worker_layout(workers)
+        if processes < workers:
+            click.echo(f"fcsweep: --workers {workers} is more than the {processes} core(s) available; "
+                       f"using {processes}", err=True)
+            workers = processes
     src = config or f"built-in demo ({builtin_demo_path().name})"
     click.echo(f"fcsweep: {len(specs)} run(s) of {src} -> {cfg.output} [{executor}"
                f"{', ' + str(workers) + ' workers' if executor == 'process' else ''}]", err=True)

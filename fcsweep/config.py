@@ -45,6 +45,7 @@ import numpy as np
 import yaml
 
 from fcsweep.model.rates import QUADRATURES
+from fcsweep.model.shape import dt_problem
 
 __all__ = [
     "ConfigError",
@@ -413,6 +414,17 @@ def _grid_values(name: str, spec) -> tuple:
     return out
 
 
+def _check_time_step(grid: Mapping[str, tuple], model: Mapping[str, Any]) -> None:
+    """dt must not overshoot the tension relaxation of the stiffest shape mode at any
+    grid point (:func:`fcsweep.model.shape.max_stable_dt`)."""
+    names = ("dt", "eta", "modes", "mu_shape", "R0")
+    values = [grid[n] if n in grid else (model[n],) for n in names]
+    for dt, eta, modes, mu_shape, R0 in itertools.product(*values):
+        problem = dt_problem(dt, eta, modes, mu_shape, R0)
+        if problem:
+            raise ConfigError(f"{'grid' if 'dt' in grid else 'model'}.dt: {problem}")
+
+
 def _validate(data, source: str) -> SweepConfig:
     if data is None:
         raise ConfigError("the file is empty; a sweep needs at least 'grid' and 'run'")
@@ -486,6 +498,7 @@ def _validate(data, source: str) -> SweepConfig:
             raise ConfigError(f"model parameter {name!r} is missing; give it in 'model' or 'grid'")
         else:
             model[name] = default
+    _check_time_step(grid, model)
 
     # run
     run_in = data["run"]

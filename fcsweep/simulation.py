@@ -22,11 +22,11 @@ import numba
 import numpy as np
 
 from . import __version__
-from .kernels.step import LIST_FULL, NONFINITE, OK, run_chunk
+from .kernels.step import LIST_FULL, NONFINITE, OK, P_DMAX, run_chunk
 from .kernels.api import param_vector
 from .kernels.workspace import quadrature_code, workspace_for
 from .model.lattice import hexagonal_lattice, lattice_box
-from .model.shape import ADMISSIBLE_BOUND, PROJECTION_MARGIN
+from .model.shape import ADMISSIBLE_BOUND, PROJECTION_MARGIN, dt_problem
 
 #: Steps whose noise is drawn at once; any value gives the same trajectory.
 CHUNK = 256
@@ -81,6 +81,9 @@ class SimParams:
             if not ok:
                 raise ValueError(f"{name} must be {allowed}; got {getattr(self, name)!r}")
         quadrature_code(self.quadrature)
+        problem = dt_problem(self.dt, self.eta, self.modes, self.mu_shape, self.R0)
+        if problem:
+            raise ValueError(problem)
 
     @property
     def box(self) -> np.ndarray:
@@ -186,6 +189,7 @@ class Simulation:
             raise ValueError(f"steps must be >= 0; got {steps}")
         s = self.state
         ws = self._ws
+        self._check_state()
         threads = numba.get_num_threads()
         numba.set_num_threads(max(1, min(threads, self.params.N // CELLS_PER_THREAD)))
         try:
@@ -218,12 +222,28 @@ class Simulation:
         finally:
             numba.set_num_threads(threads)
 
+    def _check_state(self) -> None:
+        """Refuse to step a state with non-finite values (set from outside: the kernels
+        stop before writing any); they would corrupt the cell list."""
+        s = self.state
+        for name in ("pos", "theta", "a", "b"):
+            x = getattr(s, name).reshape(self.params.N, -1)
+            bad = np.flatnonzero(~np.isfinite(x).all(axis=1))
+            if bad.size:
+                raise SimulationError(f"state.{name} has non-finite values for {bad.size} cell(s) (first: "
+                                      f"{bad[:5].tolist()}) at step {s.step}; nothing was integrated")
+
     def _failure_message(self, status) -> str:
         p = self.params
         bad = np.flatnonzero(self._ws.flags & (1 if status == NONFINITE else 2))
         what = "non-finite rates" if status == NONFINITE else "a cell moved more than the contour spacing in one step"
+        safer = p.dt / 4
+        speed = np.hypot(*self._ws.out[0][bad].T) if bad.size else np.zeros(0)
+        if status != NONFINITE and speed.size and np.isfinite(speed).all():
+            # the step at which the fastest of these cells would move half the spacing
+            safer = min(safer, 0.5 * self._prm[P_DMAX] / speed.max())
         hint = (f"dt={p.dt:g} is probably too large for eta={p.eta:g}, v0={p.v0:g}; "
-                f"try dt={p.dt / 4:g} (the paper uses 5e-3)")
+                f"try dt={safer:.2g} (the paper uses 5e-3)")
         return (f"unstable at step {self.state.step}: {what} for {len(bad)} cell(s) "
                 f"(first: {bad[:5].tolist()}); {hint}")
 

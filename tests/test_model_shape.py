@@ -95,3 +95,45 @@ def test_lattice_density_and_spacing():
     a = math.sqrt(2 * math.pi / (0.95 * math.sqrt(3)))
     assert np.allclose(r.min(axis=1), a)
     assert np.all(np.sum(np.isclose(r, a), axis=1) == 6)
+
+
+@pytest.mark.parametrize("n", [2, 4, 6])
+@pytest.mark.parametrize("R0,mu_shape", [(1.0, 1.0), (2.0, 0.5)])
+def test_tension_rate_is_the_linear_relaxation_rate_of_the_model(n, R0, mu_shape):
+    """An isolated, slightly deformed cell: -da_n/dt / a_n from the rates of the model
+    equals pi mu_shape eta R0 (n^2 - 1) to second order in a_n (here 1e-5)."""
+    from fcsweep.model.rates import rates
+    from fcsweep.model.shape import tension_rate
+
+    a = np.zeros((1, 5))
+    a[0, n - 2] = 1e-5
+    r = rates(np.zeros((1, 2)), np.zeros(1), a, np.zeros((1, 5)), eta=0.7, v0=0.0, R0=R0, mu_shape=mu_shape)
+    assert -r["da"][0, n - 2] / 1e-5 == pytest.approx(tension_rate(n, 0.7, mu_shape, R0), rel=1e-6)
+
+
+def test_euler_tension_relaxation_is_stable_only_below_twice_the_rate():
+    """Explicit Euler on the isolated cell's mode 6 (amplification 1 - dt lambda_6 per
+    step): no sign flip at dt = 1/lambda, flips but at least halves per step at
+    max_stable_dt = 1.5/lambda, grows at 2.2/lambda."""
+    from fcsweep.model.rates import rates
+    from fcsweep.model.shape import max_stable_dt, tension_rate
+
+    eta = 1.0
+    lam = tension_rate(6, eta)
+
+    def amplitudes(dt, steps):
+        a = np.zeros((1, 5))
+        a[0, 4] = 0.01
+        out = []
+        for _ in range(steps):
+            a = a + dt * rates(np.zeros((1, 2)), np.zeros(1), a, np.zeros((1, 5)), eta=eta, v0=0.0)["da"]
+            out.append(a[0, 4])
+        return np.array(out)
+
+    at = amplitudes(1.0 / lam, 5)
+    assert np.all(at > -1e-12) and abs(at[-1]) < 1e-6  # one step removes the linear part
+    assert max_stable_dt(eta, 6) == pytest.approx(1.5 / lam)
+    flips = amplitudes(max_stable_dt(eta, 6), 8)
+    assert np.any(flips < 0) and np.all(np.abs(flips[1:]) <= 0.51 * np.abs(flips[:-1]))
+    grows = amplitudes(2.2 * max_stable_dt(eta, 6) / 1.5, 10)
+    assert abs(grows[-1]) > 0.01

@@ -232,11 +232,14 @@ def test_status_shows_pending_interrupted_and_progress(done_sweep, tmp_path):
     assert " 50.0% 100" in r.output and "1 interrupted" in r.output
 
 
-def test_process_pool_matches_serial(done_sweep, tmp_path):
+def test_process_pool_matches_serial(done_sweep, tmp_path, monkeypatch):
+    """Also: more workers than cores are capped at the cores (no oversubscription)."""
+    monkeypatch.setattr("fcsweep.sweep.executors._cores", lambda: 2)
     path, ref = done_sweep
     out = tmp_path / "pool"
-    r = CliRunner().invoke(cli, ["simulate", str(path), "-o", str(out), "--workers", "2"])
+    r = CliRunner().invoke(cli, ["simulate", str(path), "-o", str(out), "--workers", "5"])
     assert r.exit_code == 0, r.output
+    assert "--workers 5 is more than the 2 core(s) available; using 2" in r.output
     assert "process, 2 workers" in r.output and "4 computed" in r.output
     cfg = ref.with_output(out)
     for s in cfg.runs():
@@ -316,3 +319,13 @@ def test_spilling_frames_between_checkpoints_gives_same_file(done_sweep, tmp_pat
     spec = cfg.runs()[1]
     assert runner.run_one(cfg, spec).outcome == "done"
     _same(cfg.run_dir(spec.run_id) / schema.TRAJECTORY, ref.run_dir(spec.run_id) / schema.TRAJECTORY)
+
+
+@pytest.mark.parametrize("cores,workers,layout", [(2, 1, (1, 2)), (2, 2, (2, 1)), (2, 8, (2, 1)), (16, 3, (3, 5)),
+                                                  (1, 4, (1, 1))])
+def test_worker_layout_never_oversubscribes(cores, workers, layout, monkeypatch):
+    from fcsweep.sweep.executors import worker_layout
+
+    monkeypatch.setattr("fcsweep.sweep.executors._cores", lambda: cores)
+    processes, threads = worker_layout(workers)
+    assert (processes, threads) == layout and processes * threads <= cores

@@ -141,10 +141,38 @@ def test_nan_never_passes_silently():
         s.advance(10)
 
 
-def test_huge_dt_stops_with_a_safer_dt():
-    s = make(N=36, v0=0.06, dt=5.0, Dr=0.0)
-    with pytest.raises(SimulationError, match=r"try dt=1\.25"):
-        s.advance(10)
+def test_nan_set_in_the_state_is_refused_before_any_step():
+    s = make(N=16)
+    s.state.pos[3, 0] = np.nan
+    with pytest.raises(SimulationError, match=r"state\.pos has non-finite values for 1 cell\(s\) \(first: \[3\]\)"):
+        s.advance(5)
+    assert s.state.step == 0
+
+
+def test_dt_above_the_tension_limit_is_refused_naming_the_limit():
+    """eta = 0.03: mode 6 relaxes at pi 0.03 35 = 3.30 per unit time, so dt <= 1.5/3.30."""
+    with pytest.raises(ValueError, match=r"dt = 5 is too large for eta = 0\.03.*allowed: 0 < dt <= 0\.455"):
+        make(N=36, dt=5.0)
+    make(N=36, dt=0.45)  # just below: accepted
+    make(N=36, dt=5.0, modes=0)  # rigid discs have no shape modes to overshoot
+
+
+def test_huge_dt_stops_with_a_safer_dt_that_follows_the_measured_speed():
+    """No tension (no dt limit from it): the guard stops dt = 5 and suggests at most
+    dt/4, less if the fastest flagged cell needs it; following the hints reaches a dt
+    that runs within two more tries."""
+    dt, tries = 5.0, 0
+    while True:
+        s = make(N=36, eta=0.0, v0=0.06, dt=dt, Dr=0.0)
+        try:
+            s.advance(int(20 / dt) + 1)
+            break
+        except SimulationError as e:
+            new = float(str(e).split("try dt=")[1].split()[0])
+            assert new <= dt / 4 * 1.01
+            dt, tries = new, tries + 1
+        assert tries <= 3
+    assert tries >= 1 and np.all(np.isfinite(s.state.pos))
 
 
 @pytest.mark.parametrize("kw,msg", [

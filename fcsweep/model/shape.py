@@ -168,3 +168,42 @@ def bounding_radius(a: np.ndarray, b: np.ndarray, R0: float = 1.0) -> np.ndarray
 def inner_radius(a: np.ndarray, b: np.ndarray, R0: float = 1.0) -> np.ndarray:
     """Rigorous lower bound of R(phi): R0 (a0 - sum_n |c_n|), positive when admissible."""
     return R0 * (a0_of(a, b) - amplitude_sum(a, b))
+
+
+def tension_rate(n: int, eta: float, mu_shape: float = 1.0, R0: float = 1.0) -> float:
+    """Relaxation rate of shape mode n of a round cell under membrane tension alone.
+
+    Near the circle the perimeter is P = 2 pi R0 [1 + sum_n (n^2 - 1)(a_n^2 + b_n^2) / 4]
+    to second order, so da_n/dt = -mu_shape eta dP/da_n = -lambda_n a_n with
+    lambda_n = pi mu_shape eta R0 (n^2 - 1).
+    """
+    return float(np.pi * mu_shape * eta * R0 * (n * n - 1))
+
+
+def max_stable_dt(eta: float, modes: int, mu_shape: float = 1.0, R0: float = 1.0) -> float:
+    """Largest time step allowed by the tension relaxation of the stiffest shape mode M:
+    dt <= 1.5 / lambda_M (:func:`tension_rate`).
+
+    The explicit (Euler) step multiplies that mode by 1 - dt lambda_M: beyond
+    dt = 2 / lambda_M it grows every step and, kept finite only by the admissibility
+    projection, gives wrong shapes without any non-finite value.  At 1.5 / lambda_M it
+    still halves every step (with a sign flip), which leaves a margin for the extra
+    stiffness of overlaps and of the perimeter away from the circle; the response to
+    slowly varying forces (the fixed point of the step) does not depend on dt.  ``inf``
+    for rigid discs (modes = 0) or no tension.
+    """
+    rate = tension_rate(modes, eta, mu_shape, R0) if modes >= 2 else 0.0
+    return float("inf") if rate <= 0.0 else 1.5 / rate
+
+
+def dt_problem(dt, eta, modes, mu_shape=1.0, R0=1.0) -> str:
+    """Why ``dt`` is too large for the membrane tension (:func:`max_stable_dt`), or ""
+    if it is not."""
+    limit = max_stable_dt(eta, modes, mu_shape, R0)
+    if dt <= limit:
+        return ""
+    rate = 1.5 / limit
+    return (f"dt = {dt:g} is too large for eta = {eta:g} (modes = {modes}, mu_shape = {mu_shape:g}, R0 = {R0:g}): "
+            f"the explicit step multiplies shape mode {modes} by 1 - dt lambda with lambda = "
+            f"pi mu_shape eta R0 (M^2 - 1) = {rate:.4g} per unit time, which amplifies it above dt = "
+            f"{2.0 / rate:.3g}; allowed: 0 < dt <= {limit:.3g} (1.5 / lambda)")

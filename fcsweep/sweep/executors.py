@@ -2,8 +2,9 @@
 
 Every executor calls :func:`fcsweep.sweep.runner.run_one` per run, so locking, resuming
 and status files behave the same everywhere.  Workers of the process pool are started with
-the ``spawn`` context (safe with numba and threads) and each gets
-``max(1, cores // workers)`` numba threads, so processes x threads never exceeds the cores.
+the ``spawn`` context (safe with numba and threads); there are at most as many as cores,
+and each gets ``cores // processes`` numba threads, so processes x threads never exceeds
+the cores (:func:`worker_layout`).  Dask runs use one numba thread each.
 Dask workers must see the same file system path as the submitting process.
 """
 
@@ -24,7 +25,7 @@ from fcsweep.io.status import read_status
 from fcsweep.sweep.progress import Progress
 from fcsweep.sweep.runner import RunOutcome, run_one
 
-__all__ = ["run_sweep", "select_runs", "EXECUTORS"]
+__all__ = ["run_sweep", "select_runs", "worker_layout", "EXECUTORS"]
 
 EXECUTORS = ("serial", "process", "dask")
 _POLL = 0.5
@@ -50,6 +51,14 @@ def _cores() -> int:
         return len(os.sched_getaffinity(0))
     except AttributeError:  # pragma: no cover - non-Linux
         return os.cpu_count() or 1
+
+
+def worker_layout(workers: int) -> tuple[int, int]:
+    """(processes, numba threads per process) for ``workers`` runs at once on this
+    machine: never more processes than cores, and processes x threads <= cores."""
+    cores = _cores()
+    processes = max(1, min(int(workers), cores))
+    return processes, max(1, cores // processes)
 
 
 def _sigterm(signum, frame):
@@ -81,6 +90,14 @@ def _spec_task(spec: RunSpec, cfg: SweepConfig, force: bool, stale_after: float,
     """:func:`_task` with the run first, for ``Client.map``; one run per worker process
     at a time (start Dask workers with ``--nthreads 1`` and several ``--nworkers``)."""
     with _THREAD_RUN_LOCK:
+        # one numba thread per run: a Dask worker process runs one run at a time and a
+        # node runs one worker process per core (numba's setting is per calling thread)
+        try:
+            import numba
+
+            numba.set_num_threads(1)
+        except Exception:  # noqa: BLE001 - numba missing or threads already fixed
+            pass
         return _task(cfg, spec, force, stale_after, skip_failed)
 
 
@@ -135,7 +152,7 @@ def run_sweep(
             out.append(o)
         return out
     if executor == "process":
-        threads = max(1, _cores() // workers)
+        workers, threads = worker_layout(workers)
         ctx = mp.get_context("spawn")
         with cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_worker,
                                     initargs=(threads,)) as pool:
