@@ -499,6 +499,11 @@ def _validate(data, source: str) -> SweepConfig:
         else:
             model[name] = default
     _check_time_step(grid, model)
+    if set(grid.get("modes", (model.get("modes"),))) == {0}:
+        for name in ("quadrature", "contour_points"):
+            if name in grid:
+                raise ConfigError(f"grid.{name} is swept but has no effect with modes = 0 (rigid discs: "
+                                  "exact lens overlaps, no contour); sweep it with modes >= 2 or remove it")
 
     # run
     run_in = data["run"]

@@ -59,7 +59,7 @@ class SimParams:
     dt: float = 5e-3
     contour_points: int = 40
     modes: int = 6
-    quadrature: str = "binary"
+    quadrature: str = "arc"
     R0: float = 1.0
     mu_theta: float = 1.0
     mu_shape: float = 1.0
@@ -152,7 +152,7 @@ class Simulation:
     # ------------------------------------------------------------------ construction
     @classmethod
     def from_lattice(cls, N, *, eta, v0, Dr=0.01, seed, density=0.95, dt=5e-3, contour_points=40, modes=6,
-                     quadrature="binary", R0=1.0, mu_theta=1.0, mu_shape=1.0) -> "Simulation":
+                     quadrature="arc", R0=1.0, mu_theta=1.0, mu_shape=1.0) -> "Simulation":
         """Cells on the n x n hexagonal lattice, circular, with uniform random polarity.
 
         Parameters are those of :class:`SimParams`; N must be n*n with n even.
@@ -275,7 +275,9 @@ class Simulation:
         def scalar(x):
             return np.asarray(x).item()
 
-        params = SimParams(**json.loads(str(scalar(ck["params_json"]))))
+        stored = json.loads(str(scalar(ck["params_json"])))
+        stored.setdefault("quadrature", "binary")  # the only rule before the option existed
+        params = SimParams(**stored)
         rng = np.random.Generator(np.random.PCG64())
         rng.bit_generator.state = json.loads(str(scalar(ck["rng_state_json"])))
         state = State(pos=np.array(ck["pos"], float), image=np.array(ck["image"], np.int64),

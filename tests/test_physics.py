@@ -128,6 +128,17 @@ def test_gradient_flow_energy_does_not_increase():
     assert np.diff(fine).max() < np.diff(coarse).max()
 
 
+@pytest.mark.parametrize("quadrature", ["binary", "linear"])
+def test_gradient_flow_energy_does_not_increase_with_point_rules(quadrature):
+    """Property 3 for the point-weight rules at the paper's (K, dt) = (40, 5e-3): their
+    forces are not the exact gradient, so H may rise by quadrature noise; measured: the
+    largest rise is 1e-4 of the total decrease (binary), none (linear)."""
+    H = _energy_series(40, 5e-3, quadrature)
+    drop = H[0] - H[-1]
+    assert drop > 0.5
+    assert np.diff(H).max() < 4e-3 * drop
+
+
 def test_area_exact_and_shapes_admissible_during_a_run():
     """Property 4: a0 keeps the area at pi R0^2 by construction; shapes stay admissible."""
     sim = Simulation.from_lattice(36, eta=0.005, v0=0.1, Dr=0.1, seed=4)
@@ -161,10 +172,13 @@ def test_isolated_cell_relaxes_to_circle_and_moves_straight():
     assert np.allclose(disp, expect, atol=1e-9)
 
 
-def test_rates_are_rotation_and_translation_covariant(dense):
+@pytest.mark.parametrize("quadrature", ["binary", "linear", "arc", "discs"])
+def test_rates_are_rotation_and_translation_covariant(dense, quadrature):
     """Property 7 (open boundaries): rotate everything by alpha -> rates rotate."""
     pos, theta, a, b, _ = dense
-    kw = dict(eta=0.03, v0=0.05, box=None, quadrature="arc")
+    if quadrature == "discs":
+        a, b, quadrature = a[:, :0], b[:, :0], "binary"
+    kw = dict(eta=0.03, v0=0.05, box=None, quadrature=quadrature)
     r0 = kernel_rates(pos, theta, a, b, **kw)
     al = 0.7
     Rm = np.array([[math.cos(al), -math.sin(al)], [math.sin(al), math.cos(al)]])
@@ -174,7 +188,7 @@ def test_rates_are_rotation_and_translation_covariant(dense):
         assert np.allclose(r1[k], r0[k], atol=1e-9)
 
 
-@pytest.mark.parametrize("quadrature", ["binary", "arc"])
+@pytest.mark.parametrize("quadrature", ["binary", "linear", "arc"])
 def test_pair_across_periodic_boundary_equals_pair_in_middle(quadrature):
     from conftest import dense_config as dc
 

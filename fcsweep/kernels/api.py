@@ -30,7 +30,7 @@ def wrap_positions(pos, box):
     return pos
 
 
-def kernel_rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, contour_points=40, quadrature="binary",
+def kernel_rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, contour_points=40, quadrature="arc",
                  mu_theta=1.0, mu_shape=1.0, workspace=None):
     """Deterministic rates computed by the numba kernels; same contract as
     :func:`fcsweep.model.rates.rates`."""

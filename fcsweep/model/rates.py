@@ -391,7 +391,7 @@ def disc_rates(pos, theta, *, v0, box=None, R0=1.0):
     return {"dpos": dpos, "dtheta": np.zeros(N), "da": np.zeros((N, 0)), "db": np.zeros((N, 0))}
 
 
-def rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, contour_points=40, quadrature="binary",
+def rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, contour_points=40, quadrature="arc",
           mu_theta=1.0, mu_shape=1.0):
     """Deterministic time derivatives of MODEL.md (no noise).
 
