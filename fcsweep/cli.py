@@ -96,7 +96,7 @@ def simulate(config, output, workers, executor, scheduler, task_index, retry_fai
         click.echo(f"fcsweep: {exc}", err=True)
         sys.exit(2)
     if executor == "process":
-        from fcsweep.sweep.executors import worker_layout
+        from fcsweep.sweep.layout import worker_layout
 
         processes, _ = worker_layout(workers)
         if processes < workers:

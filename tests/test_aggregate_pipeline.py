@@ -106,6 +106,26 @@ def test_analyze_reports_every_run_and_skips_when_up_to_date(sweep):
     assert fl["q_mean"] > res["scalars"]["q_mean"] > 3.5449
 
 
+def test_analysis_pool_gives_the_serial_results_without_oversubscribing(sweep, monkeypatch):
+    """workers = 5 on '2 cores': two processes, one freud thread each, same numbers."""
+    import fcsweep.analysis.pipeline as pipeline
+
+    cfg, runs, _ = sweep
+    serial = {r.run_id: read_analysis(cfg.output / "runs" / r.run_id / "analysis.h5")["scalars"] for r in runs[:3]}
+    seen = []
+    real = pipeline.ProcessPoolExecutor
+    monkeypatch.setattr("fcsweep.sweep.layout.available_cores", lambda: 2)
+    monkeypatch.setattr(pipeline, "ProcessPoolExecutor",
+                        lambda **kw: seen.append((kw["max_workers"], kw["initargs"])) or real(**kw))
+    results = analyze_sweep(cfg, workers=5, force=True)
+    assert seen == [(2, (1,))]
+    assert [s for _, s, _ in results] == ["done", "done", "done", "skipped"]
+    for r in runs[:3]:
+        pooled = read_analysis(cfg.output / "runs" / r.run_id / "analysis.h5")["scalars"]
+        for k in ("D_eff", "q_mean", "rho_d", "psi6"):
+            assert pooled[k] == serial[r.run_id][k] or (np.isnan(pooled[k]) and np.isnan(serial[r.run_id][k])), k
+
+
 def test_bad_trajectory_is_reported_not_raised(tmp_path, sweep):
     cfg, runs, _ = sweep
     bad = tmp_path / "trajectory.h5"

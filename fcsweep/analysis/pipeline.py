@@ -37,6 +37,7 @@ from fcsweep.analysis import diffusion, order, shapes, voronoi
 from fcsweep.analysis.msd import log_lag_indices, msd_curve
 from fcsweep.analysis.phase import percolation_code, phase_code
 from fcsweep.analysis.trajectory import TrajectoryError, open_trajectory
+from fcsweep.sweep.layout import worker_layout
 
 ANALYSIS_FILE = "analysis.h5"
 TRAJECTORY_FILE = "trajectory.h5"
@@ -298,6 +299,13 @@ def _analyze_task(traj_path, transient, force, settings):
         return "failed", f"{type(exc).__name__}: {exc}"
 
 
+def _init_worker(threads: int) -> None:
+    """Pool processes: freud uses ``threads`` threads, so processes x threads <= cores."""
+    import freud
+
+    freud.parallel.set_num_threads(threads)
+
+
 def analyze_sweep(config, *, workers=1, force=False, settings=None) -> list:
     """Analyse every finished run of a sweep.
 
@@ -326,7 +334,8 @@ def analyze_sweep(config, *, workers=1, force=False, settings=None) -> list:
         for rid, tp in todo:
             out[rid] = _analyze_task(tp, transient, force, settings)
     else:
-        with ProcessPoolExecutor(max_workers=int(workers)) as pool:
+        processes, threads = worker_layout(workers)
+        with ProcessPoolExecutor(max_workers=processes, initializer=_init_worker, initargs=(threads,)) as pool:
             futs = {pool.submit(_analyze_task, tp, transient, force, settings): rid for rid, tp in todo}
             for fut in as_completed(futs):
                 try:

@@ -22,6 +22,7 @@ from fcsweep.config import RunSpec, SweepConfig
 from fcsweep.io import schema
 from fcsweep.io.locks import DEFAULT_STALE_AFTER
 from fcsweep.io.status import read_status
+from fcsweep.sweep.layout import worker_layout
 from fcsweep.sweep.progress import Progress
 from fcsweep.sweep.runner import RunOutcome, run_one
 
@@ -44,21 +45,6 @@ def select_runs(cfg: SweepConfig, *, task_index: int | None = None, retry_failed
     if retry_failed:
         specs = [s for s in specs if (read_status(cfg.run_dir(s.run_id)) or {}).get("status") == schema.FAILED]
     return specs
-
-
-def _cores() -> int:
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # pragma: no cover - non-Linux
-        return os.cpu_count() or 1
-
-
-def worker_layout(workers: int) -> tuple[int, int]:
-    """(processes, numba threads per process) for ``workers`` runs at once on this
-    machine: never more processes than cores, and processes x threads <= cores."""
-    cores = _cores()
-    processes = max(1, min(int(workers), cores))
-    return processes, max(1, cores // processes)
 
 
 def _sigterm(signum, frame):
