@@ -14,24 +14,17 @@ contours) are the meaningful numbers on a shared, noisy machine.
 from __future__ import annotations
 
 import argparse
-import time
 
 import numba
 
 from fcsweep.simulation import Simulation
+from fcsweep.sweep.bench import measure_throughput
 
 
 def measure(N, quadrature, threads, steps, warm, modes=6, seed=1):
     """Best-of-three cell-steps per second of ``Simulation.advance`` (wall clock)."""
-    numba.set_num_threads(threads)
-    sim = Simulation.from_lattice(N, eta=0.03, v0=0.06, Dr=0.01, seed=seed, quadrature=quadrature, modes=modes)
-    sim.advance(warm)
-    best = float("inf")
-    for _ in range(3):
-        t0 = time.perf_counter()
-        sim.advance(steps)
-        best = min(best, time.perf_counter() - t0)
-    return N * steps / best
+    params = dict(N=N, eta=0.03, v0=0.06, Dr=0.01, seed=seed, quadrature=quadrature, modes=modes)
+    return measure_throughput(params, steps=steps, warm=warm, threads=threads)
 
 
 def main(argv=None):

@@ -1,4 +1,4 @@
-"""Command line: ``fcsweep simulate | status | list-runs | validate | analyze | aggregate | plot``.
+"""Command line: ``fcsweep simulate | status | list-runs | validate | bench | analyze | aggregate | plot``.
 
 Every command takes an optional CONFIG (a sweep YAML file); without one it uses the
 built-in demo sweep (``fcsweep/data/smoke.yaml``, identical to ``configs/smoke.yaml``),
@@ -167,6 +167,61 @@ def list_runs(config, count, as_json):
         return
     for s in specs:
         click.echo(f"{s.index:>5}  {s.run_id}  {s.label()}")
+
+
+def _duration(seconds: float) -> str:
+    if seconds < 10:
+        return f"{seconds:.1f} s"
+    if seconds < 120:
+        return f"{seconds:.0f} s"
+    if seconds < 7200:
+        return f"{seconds / 60:.0f} min"
+    return f"{seconds / 3600:.1f} h"
+
+
+@cli.command()
+@CONFIG_ARG
+@click.option("--compare", "-c", multiple=True, type=click.Choice(["binary", "linear", "arc"]),
+              help="Also time these quadratures at the same settings (repeatable).")
+@click.option("--steps", type=click.IntRange(min=1), default=200, show_default=True,
+              help="Timed steps per block at N = 1024 (scaled by 1024/N; best of 3 blocks).")
+@click.option("--warm", type=click.IntRange(min=0), default=2000, show_default=True,
+              help="Steps off the lattice before timing.")
+@click.option("--threads", type=click.IntRange(min=1), default=1, show_default=True,
+              help="numba threads per run while timing.")
+@click.option("--workers", "-j", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Processes for the wall-time estimate (capped at the cores).")
+@click.option("--json", "as_json", is_flag=True, help="Machine-readable output.")
+def bench(config, compare, steps, warm, threads, workers, as_json):
+    """Time the step on this machine for each cost setting of a sweep and estimate the
+    sweep's CPU and wall time (without CONFIG: the built-in demo)."""
+    from fcsweep.sweep.bench import COST_KEYS, bench_sweep
+    from fcsweep.sweep.layout import worker_layout
+
+    cfg = _load(config)
+    log = None if as_json else (lambda msg: click.echo(f"fcsweep: {msg}", err=True))
+    rows = bench_sweep(cfg, steps=steps, warm=warm, quadratures=list(compare) or None, threads=threads, log=log)
+    # the rows of the sweep's own settings (not the --compare alternatives) make its time
+    own_keys = {tuple(spec.params[k] for k in COST_KEYS) for spec in cfg.runs()}
+    own = [r for r in rows if tuple(r.setting[k] for k in COST_KEYS) in own_keys]
+    cpu = sum(r.cpu_seconds for r in own)
+    processes, _ = worker_layout(workers)
+    wall = max(cpu / processes, max(r.cpu_seconds / r.runs for r in own))  # no run is split
+    if as_json:
+        click.echo(json.dumps({"rows": [{**r.setting, "runs": r.runs, "cell_steps": r.cell_steps,
+                                         "cell_steps_per_s": r.rate, "cpu_seconds": r.cpu_seconds} for r in rows],
+                               "sweep_cpu_seconds": cpu, "processes": processes,
+                               "sweep_wall_seconds": wall, "threads": threads}, indent=1))
+        return
+    click.echo(f"{'N':>6} {'modes':>5} {'K':>4} {'quadrature':>10} {'runs':>5} {'cell-steps/s':>13} "
+               f"{'us/cell-step':>12} {'CPU time of these runs':>23}")
+    for r in rows:
+        st = r.setting
+        click.echo(f"{st['N']:>6} {st['modes']:>5} {st['contour_points']:>4} {st['quadrature']:>10} {r.runs:>5} "
+                   f"{r.rate:>13.3e} {1e6 / r.rate:>12.3f} {_duration(r.cpu_seconds):>23}")
+    click.echo(f"sweep ({len(cfg.runs())} runs, {cfg.run.steps} steps each, its own quadratures): "
+               f"{_duration(cpu)} of CPU at {threads} thread(s) per run; about {_duration(wall)} "
+               f"wall on {processes} process(es)")
 
 
 @cli.command()

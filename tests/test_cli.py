@@ -81,3 +81,26 @@ def test_validate_and_usage_errors(tmp_path, monkeypatch):
     assert os.listdir(tmp_path) == []
     r = CliRunner().invoke(cli, ["--version"])
     assert r.exit_code == 0 and "version" in r.output
+
+
+def test_bench_times_each_setting_and_adds_up_the_sweep(tmp_path, monkeypatch):
+    """Two N (two cost settings), --compare arc: one row per (setting, rule); the work of a
+    setting is N x steps x its runs; the sweep's CPU time counts only its own rule."""
+    path = tmp_path / "b.yaml"
+    path.write_text("output: out\ngrid:\n  N: [16, 36]\n  v0: [0.01, 0.03]\nmodel:\n  eta: 0.05\n"
+                    "  quadrature: binary\nrun:\n  steps: 300\n  sample_every: 100\n")
+    monkeypatch.chdir(tmp_path)
+    r = CliRunner().invoke(cli, ["bench", str(path), "--compare", "binary", "--compare", "arc", "--steps", "20",
+                                 "--warm", "20", "--json", "-j", "2"])
+    assert r.exit_code == 0, r.output
+    out = json.loads(r.output[r.output.index("{"):])
+    rows = {(row["N"], row["quadrature"]): row for row in out["rows"]}
+    assert set(rows) == {(16, "binary"), (16, "arc"), (36, "binary"), (36, "arc")}
+    for (N, _), row in rows.items():
+        assert row["runs"] == 2 and row["cell_steps"] == N * 300 * 2
+        assert 1e3 < row["cell_steps_per_s"] < 1e9
+        assert row["cpu_seconds"] == pytest.approx(row["cell_steps"] / row["cell_steps_per_s"])
+    own = rows[(16, "binary")]["cpu_seconds"] + rows[(36, "binary")]["cpu_seconds"]
+    assert out["sweep_cpu_seconds"] == pytest.approx(own)
+    assert out["sweep_wall_seconds"] >= own / 2 - 1e-12
+    assert not (tmp_path / "out").exists()  # timing writes no run output
