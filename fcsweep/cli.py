@@ -17,7 +17,7 @@ from pathlib import Path
 
 import click
 
-from fcsweep.config import ConfigError, SweepConfig, builtin_demo_path, load_config
+from fcsweep.config import ConfigError, SweepConfig, builtin_demo_path, check_runnable, load_config
 
 CONFIG_ARG = click.argument("config", required=False, type=click.Path(dir_okay=False))
 OUTPUT_OPT = click.option(
@@ -39,10 +39,14 @@ def _exit_on_sigterm():
         return None
 
 
-def _load(config: str | None, output: str | None = None) -> SweepConfig:
+def _load(config: str | None, output: str | None = None, *, to_run: bool = False) -> SweepConfig:
+    """The sweep config (exit 2 on any problem); ``to_run`` adds the checks that concern
+    integrating it (:func:`fcsweep.config.check_runnable`), not reading its results."""
     path = Path(config) if config else builtin_demo_path()
     try:
         cfg = load_config(path)
+        if to_run:
+            check_runnable(cfg)
     except ConfigError as exc:
         click.echo(f"fcsweep: invalid config: {exc}", err=True)
         sys.exit(2)
@@ -84,7 +88,7 @@ def simulate(config, output, workers, executor, scheduler, task_index, retry_fai
     from fcsweep.sweep.executors import run_sweep, select_runs
     from fcsweep.sweep.progress import Progress
 
-    cfg = _load(config, output)
+    cfg = _load(config, output, to_run=True)
     if executor == "auto":
         executor = "process" if workers > 1 else "serial"
     if executor == "dask" and not scheduler:
@@ -198,7 +202,7 @@ def bench(config, compare, steps, warm, threads, workers, as_json):
     from fcsweep.sweep.bench import COST_KEYS, bench_sweep
     from fcsweep.sweep.layout import worker_layout
 
-    cfg = _load(config)
+    cfg = _load(config, to_run=True)
     log = None if as_json else (lambda msg: click.echo(f"fcsweep: {msg}", err=True))
     rows = bench_sweep(cfg, steps=steps, warm=warm, quadratures=list(compare) or None, threads=threads, log=log)
     # the rows of the sweep's own settings (not the --compare alternatives) make its time
@@ -228,7 +232,7 @@ def bench(config, compare, steps, warm, threads, workers, as_json):
 @click.argument("config", type=click.Path(dir_okay=False))
 def validate(config):
     """Check a config file; print the number of runs or the first problem (exit 2)."""
-    cfg = _load(config)
+    cfg = _load(config, to_run=True)
     click.echo(f"{config}: OK, {len(cfg.runs())} runs "
                f"({' x '.join(f'{k}[{len(v)}]' for k, v in cfg.grid.items())} x {cfg.replicates} replicate(s)), "
                f"{cfg.run.steps} steps each, output {cfg.output}")

@@ -45,7 +45,7 @@ import numpy as np
 import yaml
 
 from fcsweep.model.rates import QUADRATURES
-from fcsweep.model.shape import dt_problem
+from fcsweep.model.shape import contour_points_problem, dt_problem
 
 __all__ = [
     "ConfigError",
@@ -56,6 +56,7 @@ __all__ = [
     "MODEL_DEFAULTS",
     "FIELDS",
     "load_config",
+    "check_runnable",
     "parse_config",
     "run_id_of",
     "seed_of",
@@ -414,15 +415,40 @@ def _grid_values(name: str, spec) -> tuple:
     return out
 
 
-def _check_time_step(grid: Mapping[str, tuple], model: Mapping[str, Any]) -> None:
-    """dt must not overshoot the tension relaxation of the stiffest shape mode at any
-    grid point (:func:`fcsweep.model.shape.max_stable_dt`)."""
-    names = ("dt", "eta", "modes", "mu_shape", "R0")
+def check_runnable(cfg: "SweepConfig") -> None:
+    """Checks that concern running a sweep, not reading one: raise :class:`ConfigError`
+    if some grid point cannot be integrated faithfully.
+
+    - K > 2M contour points (:func:`fcsweep.model.shape.contour_points_problem`);
+    - dt within the tension limit of the stiffest shape mode
+      (:func:`fcsweep.model.shape.max_stable_dt`);
+    - quadrature and contour_points are not swept when every run has rigid discs.
+
+    ``simulate`` and ``validate`` call it before anything runs; the read-only commands
+    (status, analyze, aggregate, plot) do not, so sweeps computed before a check existed
+    stay readable.
+    """
+    grid, model = cfg.grid, cfg.model
+
+    def where(name):
+        return f"grid.{name}" if name in grid else f"model.{name}"
+
+    names = ("dt", "eta", "modes", "mu_shape", "R0", "contour_points")
     values = [grid[n] if n in grid else (model[n],) for n in names]
-    for dt, eta, modes, mu_shape, R0 in itertools.product(*values):
+    for dt, eta, modes, mu_shape, R0, K in itertools.product(*values):
+        problem = contour_points_problem(K, modes)
+        if problem:
+            raise ConfigError(f"{cfg.source}: {where('contour_points')}: {problem}")
         problem = dt_problem(dt, eta, modes, mu_shape, R0)
         if problem:
-            raise ConfigError(f"{'grid' if 'dt' in grid else 'model'}.dt: {problem}")
+            raise ConfigError(f"{cfg.source}: {where('dt')}: {problem}")
+    if set(grid.get("modes", (model.get("modes"),))) == {0}:
+        for name in ("quadrature", "contour_points"):
+            if name in grid:
+                raise ConfigError(
+                    f"{cfg.source}: grid.{name} = {list(grid[name])!r} is swept but does not change the physics "
+                    "with modes = 0 (rigid discs: exact lens overlaps, no contour); the runs would differ only in "
+                    "their noise. Sweep it with modes >= 2 or remove it")
 
 
 def _validate(data, source: str) -> SweepConfig:
@@ -498,12 +524,6 @@ def _validate(data, source: str) -> SweepConfig:
             raise ConfigError(f"model parameter {name!r} is missing; give it in 'model' or 'grid'")
         else:
             model[name] = default
-    _check_time_step(grid, model)
-    if set(grid.get("modes", (model.get("modes"),))) == {0}:
-        for name in ("quadrature", "contour_points"):
-            if name in grid:
-                raise ConfigError(f"grid.{name} is swept but has no effect with modes = 0 (rigid discs: "
-                                  "exact lens overlaps, no contour); sweep it with modes >= 2 or remove it")
 
     # run
     run_in = data["run"]

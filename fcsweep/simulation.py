@@ -26,7 +26,7 @@ from .kernels.step import LIST_FULL, NONFINITE, OK, P_DMAX, run_chunk
 from .kernels.api import param_vector
 from .kernels.workspace import quadrature_code, workspace_for
 from .model.lattice import hexagonal_lattice, lattice_box
-from .model.shape import ADMISSIBLE_BOUND, PROJECTION_MARGIN, dt_problem
+from .model.shape import ADMISSIBLE_BOUND, PROJECTION_MARGIN, contour_points_problem, dt_problem
 
 #: Steps whose noise is drawn at once; any value gives the same trajectory.
 CHUNK = 256
@@ -81,7 +81,11 @@ class SimParams:
             if not ok:
                 raise ValueError(f"{name} must be {allowed}; got {getattr(self, name)!r}")
         quadrature_code(self.quadrature)
-        problem = dt_problem(self.dt, self.eta, self.modes, self.mu_shape, self.R0)
+        for name in ("eta", "v0", "Dr", "dt", "R0", "mu_theta", "mu_shape"):
+            if not math.isfinite(getattr(self, name)):
+                raise ValueError(f"{name} must be finite; got {getattr(self, name)!r}")
+        problem = contour_points_problem(self.contour_points, self.modes) or dt_problem(
+            self.dt, self.eta, self.modes, self.mu_shape, self.R0)
         if problem:
             raise ValueError(problem)
 

@@ -83,6 +83,20 @@ def test_validate_and_usage_errors(tmp_path, monkeypatch):
     assert r.exit_code == 0 and "version" in r.output
 
 
+def test_run_checks_refuse_to_run_but_keep_results_readable(tmp_path, monkeypatch):
+    """A config whose dt exceeds the tension limit (e.g. a sweep computed before the check
+    existed): validate / simulate / bench exit 2, status and list-runs still read it."""
+    monkeypatch.chdir(tmp_path)
+    bad = ROOT / "tests" / "data" / "bad_configs" / "37_dt_above_tension_limit.yaml"
+    for cmd in ("validate", "simulate", "bench"):
+        r = CliRunner().invoke(cli, [cmd, str(bad)])
+        assert r.exit_code == 2 and "allowed: 0 < dt <= 0.0136" in r.output, (cmd, r.output)
+    for cmd in (["status"], ["list-runs", "--count"]):
+        r = CliRunner().invoke(cli, [*cmd, str(bad)])
+        assert r.exit_code == 0, (cmd, r.output)
+    assert os.listdir(tmp_path) == []
+
+
 def test_bench_times_each_setting_and_adds_up_the_sweep(tmp_path, monkeypatch):
     """Two N (two cost settings), --compare arc: one row per (setting, rule); the work of a
     setting is N x steps x its runs; the sweep's CPU time counts only its own rule."""

@@ -137,3 +137,16 @@ def test_euler_tension_relaxation_is_stable_only_below_twice_the_rate():
     assert np.any(flips < 0) and np.all(np.abs(flips[1:]) <= 0.51 * np.abs(flips[:-1]))
     grows = amplitudes(2.2 * max_stable_dt(eta, 6) / 1.5, 10)
     assert abs(grows[-1]) > 0.01
+
+
+@pytest.mark.parametrize("eta", [0.01, 0.03, 0.0731, 0.1, 1.0, 2.99])
+@pytest.mark.parametrize("modes", [2, 6, 13, 32])
+def test_quoted_dt_bound_is_accepted_and_just_above_is_refused(eta, modes):
+    """The message quotes the allowed bound rounded down, so a user can paste it."""
+    from fcsweep.model.shape import dt_problem, max_stable_dt
+
+    limit = max_stable_dt(eta, modes)
+    msg = dt_problem(1.01 * limit, eta, modes)
+    quoted = float(msg.split("dt <= ")[1].split()[0])
+    assert 0.99 * limit <= quoted <= limit
+    assert dt_problem(quoted, eta, modes) == ""

@@ -329,3 +329,14 @@ def test_worker_layout_never_oversubscribes(cores, workers, layout, monkeypatch)
     monkeypatch.setattr("fcsweep.sweep.layout.available_cores", lambda: cores)
     processes, threads = worker_layout(workers)
     assert (processes, threads) == layout and processes * threads <= cores
+
+
+@pytest.mark.parametrize("text,cpus", [("200000 100000\n", 2), ("150000 100000", 2), ("max 100000", None),
+                                       ("garbage", None)])
+def test_cgroup_cpu_quota_caps_the_cores(text, cpus, tmp_path):
+    from fcsweep.sweep.layout import cgroup_cpu_quota
+
+    f = tmp_path / "cpu.max"
+    f.write_text(text)
+    assert cgroup_cpu_quota(str(f)) == cpus
+    assert cgroup_cpu_quota(str(tmp_path / "missing")) is None

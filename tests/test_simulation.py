@@ -150,8 +150,8 @@ def test_nan_set_in_the_state_is_refused_before_any_step():
 
 
 def test_dt_above_the_tension_limit_is_refused_naming_the_limit():
-    """eta = 0.03: mode 6 relaxes at pi 0.03 35 = 3.30 per unit time, so dt <= 1.5/3.30."""
-    with pytest.raises(ValueError, match=r"dt = 5 is too large for eta = 0\.03.*allowed: 0 < dt <= 0\.455"):
+    """eta = 0.03: mode 6 relaxes at pi 0.03 35 = 3.30 per unit time, so dt <= 1.5/3.30 (printed rounded down)."""
+    with pytest.raises(ValueError, match=r"dt = 5 is too large for eta = 0\.03.*allowed: 0 < dt <= 0\.454"):
         make(N=36, dt=5.0)
     make(N=36, dt=0.45)  # just below: accepted
     make(N=36, dt=5.0, modes=0)  # rigid discs have no shape modes to overshoot
@@ -182,6 +182,9 @@ def test_huge_dt_stops_with_a_safer_dt_that_follows_the_measured_speed():
     (dict(density=1.2), r"density must be in \(0, 1\)"),
     (dict(quadrature="gauss"), "quadrature must be one of"),
     (dict(modes=1), "modes must be"),
+    (dict(eta=float("inf")), "eta must be finite"),
+    (dict(contour_points=12), "contour_points = 12 cannot resolve modes = 6"),
+    (dict(eta=1e307), "tension rate overflow"),
 ])
 def test_bad_parameters_are_clear_errors(kw, msg):
     with pytest.raises(ValueError, match=msg):

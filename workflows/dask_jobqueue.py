@@ -52,7 +52,8 @@ def make_cluster(args: argparse.Namespace):
     if args.local:
         from distributed import LocalCluster
 
-        return LocalCluster(n_workers=args.jobs, threads_per_worker=args.cores, processes=True,
+        # like a batch job: one single-threaded worker process per core
+        return LocalCluster(n_workers=args.jobs * args.cores, threads_per_worker=1, processes=True,
                             host="127.0.0.1", dashboard_address=None)
     try:
         import dask_jobqueue

@@ -13,6 +13,8 @@ Admissibility (no self-crossing, R > 0):  s = sum_n sqrt(a_n^2 + b_n^2) < sqrt(2
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 #: Upper bound of the admissible sum of mode amplitudes, sqrt(2/3).
@@ -188,22 +190,42 @@ def max_stable_dt(eta: float, modes: int, mu_shape: float = 1.0, R0: float = 1.0
     dt = 2 / lambda_M it grows every step and, kept finite only by the admissibility
     projection, gives wrong shapes without any non-finite value.  At 1.5 / lambda_M it
     still halves every step (with a sign flip), which leaves a margin for the extra
-    stiffness of overlaps and of the perimeter away from the circle; the response to
-    slowly varying forces (the fixed point of the step) does not depend on dt.  ``inf``
-    for rigid discs (modes = 0) or no tension.
+    stiffness of overlaps; away from the circle the tension stiffness only decreases, and
+    the response to slowly varying forces (the fixed point of the step) does not depend
+    on dt.  Valid for K > 2M contour points (:func:`contour_points_problem`): fewer alias
+    mode M and make the sampled tension stiffer.  ``inf`` for rigid discs (modes = 0) or
+    no tension.
     """
     rate = tension_rate(modes, eta, mu_shape, R0) if modes >= 2 else 0.0
     return float("inf") if rate <= 0.0 else 1.5 / rate
 
 
+def _round_down(x: float, digits: int = 3) -> str:
+    """``x`` to ``digits`` significant digits, rounded towards zero (a bound to quote)."""
+    if not 0.0 < x < float("inf"):
+        return f"{x:g}"
+    q = 10.0 ** (math.floor(math.log10(x)) - digits + 1)
+    return f"{math.floor(x / q * (1 + 1e-12)) * q:.{digits}g}"
+
+
 def dt_problem(dt, eta, modes, mu_shape=1.0, R0=1.0) -> str:
     """Why ``dt`` is too large for the membrane tension (:func:`max_stable_dt`), or ""
     if it is not."""
-    limit = max_stable_dt(eta, modes, mu_shape, R0)
-    if dt <= limit:
+    rate = tension_rate(modes, eta, mu_shape, R0) if modes >= 2 else 0.0
+    if dt * rate <= 1.5:
         return ""
-    rate = 1.5 / limit
+    if not math.isfinite(rate):
+        return f"eta = {eta:g}, mu_shape = {mu_shape:g}, R0 = {R0:g} make the tension rate overflow; no dt is stable"
     return (f"dt = {dt:g} is too large for eta = {eta:g} (modes = {modes}, mu_shape = {mu_shape:g}, R0 = {R0:g}): "
             f"the explicit step multiplies shape mode {modes} by 1 - dt lambda with lambda = "
             f"pi mu_shape eta R0 (M^2 - 1) = {rate:.4g} per unit time, which amplifies it above dt = "
-            f"{2.0 / rate:.3g}; allowed: 0 < dt <= {limit:.3g} (1.5 / lambda)")
+            f"{2.0 / rate:.3g}; allowed: 0 < dt <= {_round_down(1.5 / rate)} (1.5 / lambda)")
+
+
+def contour_points_problem(contour_points: int, modes: int) -> str:
+    """Why K contour points cannot carry M modes (K <= 2M aliases mode M), or ""."""
+    if modes < 2 or contour_points > 2 * modes:
+        return ""
+    return (f"contour_points = {contour_points} cannot resolve modes = {modes}: K <= 2M aliases the highest "
+            f"mode (its sampled tension is stiffer and dt limits no longer hold); allowed: contour_points >= "
+            f"{2 * modes + 1}")

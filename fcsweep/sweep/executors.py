@@ -18,7 +18,7 @@ import threading
 import time
 from typing import Sequence
 
-from fcsweep.config import RunSpec, SweepConfig
+from fcsweep.config import RunSpec, SweepConfig, check_runnable
 from fcsweep.io import schema
 from fcsweep.io.locks import DEFAULT_STALE_AFTER
 from fcsweep.io.status import read_status
@@ -122,6 +122,7 @@ def run_sweep(
     retry_failed : bool
         If False, runs whose status is ``failed`` are not recomputed (reported failed).
     """
+    check_runnable(cfg)  # ConfigError before any run starts
     progress = progress or Progress(len(specs), enabled=False)
     skip_failed = not (retry_failed or force)
     if executor not in EXECUTORS:

@@ -2,15 +2,35 @@
 
 from __future__ import annotations
 
+import math
 import os
 
 
 def available_cores() -> int:
-    """Cores this process may run on (its CPU affinity; the CPU count elsewhere)."""
+    """Cores this process may run on: its CPU affinity (the CPU count elsewhere), capped
+    by a cgroup v2 CPU quota (containers started with ``--cpus``, batch-job limits)."""
     try:
-        return len(os.sched_getaffinity(0))
+        cores = len(os.sched_getaffinity(0))
     except AttributeError:  # pragma: no cover - non-Linux
-        return os.cpu_count() or 1
+        cores = os.cpu_count() or 1
+    quota = cgroup_cpu_quota()
+    return max(1, min(cores, quota)) if quota else cores
+
+
+def cgroup_cpu_quota(path: str = "/sys/fs/cgroup/cpu.max") -> int | None:
+    """CPUs allowed by the cgroup v2 file ``cpu.max`` ("quota period", rounded up), or
+    None if there is no quota ("max") or no such file."""
+    try:
+        with open(path) as fh:
+            quota, period = fh.read().split()[:2]
+    except (OSError, ValueError):
+        return None
+    if quota == "max":
+        return None
+    try:
+        return max(1, math.ceil(int(quota) / int(period)))
+    except (ValueError, ZeroDivisionError):
+        return None
 
 
 def worker_layout(workers: int) -> tuple[int, int]:
