@@ -424,9 +424,9 @@ def check_runnable(cfg: "SweepConfig") -> None:
       (:func:`fcsweep.model.shape.max_stable_dt`);
     - quadrature and contour_points are not swept when every run has rigid discs.
 
-    ``simulate`` and ``validate`` call it before anything runs; the read-only commands
-    (status, analyze, aggregate, plot) do not, so sweeps computed before a check existed
-    stay readable.
+    ``validate``, ``simulate``, ``bench`` and :func:`fcsweep.sweep.executors.run_sweep`
+    call it before anything runs; the read-only commands (status, list-runs, analyze,
+    aggregate, plot) do not, so sweeps computed before a check existed stay readable.
     """
     grid, model = cfg.grid, cfg.model
 
