@@ -199,15 +199,13 @@ def _duration(seconds: float) -> str:
 def bench(config, compare, steps, warm, threads, workers, as_json):
     """Time the step on this machine for each cost setting of a sweep and estimate the
     sweep's CPU and wall time (without CONFIG: the built-in demo)."""
-    from fcsweep.sweep.bench import COST_KEYS, bench_sweep
+    from fcsweep.sweep.bench import bench_sweep
     from fcsweep.sweep.layout import worker_layout
 
     cfg = _load(config, to_run=True)
     log = None if as_json else (lambda msg: click.echo(f"fcsweep: {msg}", err=True))
     rows = bench_sweep(cfg, steps=steps, warm=warm, quadratures=list(compare) or None, threads=threads, log=log)
-    # the rows of the sweep's own settings (not the --compare alternatives) make its time
-    own_keys = {tuple(spec.params[k] for k in COST_KEYS) for spec in cfg.runs()}
-    own = [r for r in rows if tuple(r.setting[k] for k in COST_KEYS) in own_keys]
+    own = [r for r in rows if r.own]  # the sweep's time: its own rules, not the --compare ones
     cpu = sum(r.cpu_seconds for r in own)
     processes, _ = worker_layout(workers)
     wall = max(cpu / processes, max(r.cpu_seconds / r.runs for r in own))  # no run is split

@@ -196,8 +196,13 @@ def max_stable_dt(eta: float, modes: int, mu_shape: float = 1.0, R0: float = 1.0
     mode M and make the sampled tension stiffer.  ``inf`` for rigid discs (modes = 0) or
     no tension.
     """
-    rate = tension_rate(modes, eta, mu_shape, R0) if modes >= 2 else 0.0
+    rate = _stiffest_rate(eta, modes, mu_shape, R0)
     return float("inf") if rate <= 0.0 else 1.5 / rate
+
+
+def _stiffest_rate(eta, modes, mu_shape, R0) -> float:
+    """lambda_M of the highest mode, 0 for rigid discs (no shape modes)."""
+    return tension_rate(modes, eta, mu_shape, R0) if modes >= 2 else 0.0
 
 
 def _round_down(x: float, digits: int = 3) -> str:
@@ -211,7 +216,7 @@ def _round_down(x: float, digits: int = 3) -> str:
 def dt_problem(dt, eta, modes, mu_shape=1.0, R0=1.0) -> str:
     """Why ``dt`` is too large for the membrane tension (:func:`max_stable_dt`), or ""
     if it is not."""
-    rate = tension_rate(modes, eta, mu_shape, R0) if modes >= 2 else 0.0
+    rate = _stiffest_rate(eta, modes, mu_shape, R0)
     if dt * rate <= 1.5:
         return ""
     if not math.isfinite(rate):

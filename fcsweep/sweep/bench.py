@@ -58,6 +58,7 @@ class BenchRow:
     runs: int
     cell_steps: float
     rate: float
+    own: bool  # the sweep's own quadrature (not a --compare alternative)
 
     @property
     def cpu_seconds(self) -> float:
@@ -88,5 +89,6 @@ def bench_sweep(cfg, *, steps=200, warm=2000, quadratures=None, threads=1, log=N
             if log:
                 log(f"timing N={params['N']} modes={params['modes']} K={params['contour_points']} {rule} ...")
             rate = measure_throughput(params, steps=per_block, warm=warm, threads=threads)
-            rows.append(BenchRow({k: params[k] for k in COST_KEYS}, len(specs), work, rate))
+            rows.append(BenchRow({k: params[k] for k in COST_KEYS}, len(specs), work, rate,
+                                 own=rule == base["quadrature"]))
     return rows

@@ -54,6 +54,12 @@ def _sigterm(signum, frame):
 def _init_worker(threads: int) -> None:
     signal.signal(signal.SIGTERM, _sigterm)  # release the run lock on termination
     os.environ["NUMBA_NUM_THREADS"] = str(threads)
+    _set_numba_threads(threads)
+
+
+def _set_numba_threads(threads: int) -> None:
+    """numba threads for runs started from the calling thread (numba's setting is per
+    thread), at most what numba was started with."""
     try:
         import numba
 
@@ -77,13 +83,8 @@ def _spec_task(spec: RunSpec, cfg: SweepConfig, force: bool, stale_after: float,
     at a time (start Dask workers with ``--nthreads 1`` and several ``--nworkers``)."""
     with _THREAD_RUN_LOCK:
         # one numba thread per run: a Dask worker process runs one run at a time and a
-        # node runs one worker process per core (numba's setting is per calling thread)
-        try:
-            import numba
-
-            numba.set_num_threads(1)
-        except Exception:  # noqa: BLE001 - numba missing or threads already fixed
-            pass
+        # node runs one worker process per core
+        _set_numba_threads(1)
         return _task(cfg, spec, force, stale_after, skip_failed)
 
 
