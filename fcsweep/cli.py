@@ -260,7 +260,7 @@ def analyze(config, output, workers, force):
 @OUTPUT_OPT
 def aggregate(config, output):
     """Collect per-run analyses into <output>/phase_diagram.nc."""
-    from fcsweep.analysis.pipeline import aggregate_sweep
+    from fcsweep.analysis.aggregate import aggregate_sweep
 
     cfg = _load(config, output)
     click.echo(str(aggregate_sweep(cfg)))
@@ -274,7 +274,7 @@ def aggregate(config, output):
 @click.option("--outdir", type=click.Path(file_okay=False), default=None, help="Where figures go.")
 def plot(config, output, run, frame, outdir):
     """Figures of the sweep (phase diagram) or of one run."""
-    from fcsweep.analysis.pipeline import plot_sweep
+    from fcsweep.analysis.figures import plot_sweep
 
     cfg = _load(config, output)
     for p in plot_sweep(cfg, run=run, frame=frame, outdir=Path(outdir) if outdir else None):

@@ -12,8 +12,9 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from fcsweep.analysis.pipeline import (aggregate_sweep, analyze_run, analyze_sweep,
-                                       build_dataset, plot_sweep, read_analysis)
+from fcsweep.analysis.aggregate import aggregate_sweep, build_dataset
+from fcsweep.analysis.figures import plot_sweep
+from fcsweep.analysis.pipeline import analyze_run, analyze_sweep, read_analysis
 from fcsweep.analysis.phase import PHASE_SOLID
 from fcsweep.model.lattice import hexagonal_lattice
 

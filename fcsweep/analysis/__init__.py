@@ -9,8 +9,10 @@ voronoi    periodic Voronoi neighbours (freud), defect cells, defect clusters
 order      hexatic order psi6, |Psi6|, G6(r) and the translational cut G_r(dx, 0)
 phase      solid / fluid / soft-fluid and percolation labels
 trajectory reading one H5MD trajectory (file access, used by the pipeline only)
-pipeline   analyze_run / analyze_sweep / aggregate_sweep / plot_sweep (files)
+pipeline   analyze_run / analyze_sweep (files)
+aggregate  build_dataset / aggregate_sweep: per-run files -> phase_diagram.nc
+figures    plot_sweep: figures of a sweep or a run snapshot
 
-Only :mod:`trajectory` and :mod:`pipeline` touch files; everything else takes and
+Only :mod:`trajectory`, :mod:`pipeline`, :mod:`aggregate` and :mod:`figures` touch files; everything else takes and
 returns numpy arrays so that it can be tested with known answers.
 """

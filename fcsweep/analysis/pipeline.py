@@ -1,4 +1,4 @@
-"""File-level analysis pipeline: one run -> analysis.h5; a sweep -> phase_diagram.nc; figures.
+"""File-level analysis pipeline: one run -> analysis.h5, and every finished run of a sweep.
 
 Entry points called by the CLI (``fcsweep analyze | aggregate | plot``):
 
@@ -6,8 +6,9 @@ Entry points called by the CLI (``fcsweep analyze | aggregate | plot``):
   frames after the transient and writes ``analysis.h5`` beside it (atomically);
 - :func:`analyze_sweep` does that for every finished run of a sweep, in parallel,
   skipping runs analysed with the same settings unless ``force``;
-- :func:`aggregate_sweep` collects the per-run files into one CF-style NetCDF dataset;
-- :func:`plot_sweep` draws the phase diagram and companion figures, or one snapshot.
+- :func:`fcsweep.analysis.aggregate.aggregate_sweep` (a separate module, which imports this
+  one and never the other way round) collects the per-run files into one NetCDF dataset;
+  figures are drawn by :mod:`fcsweep.analysis.figures`.
 
 Analysis settings (``DEFAULT_SETTINGS``; stored with every result):
 
@@ -343,24 +344,3 @@ def analyze_sweep(config, *, workers=1, force=False, settings=None) -> list:
                 except Exception as exc:  # noqa: BLE001 - e.g. a worker killed for memory
                     out[futs[fut]] = ("failed", f"{type(exc).__name__}: {exc}")
     return [(spec.run_id, *out[spec.run_id]) for spec in config.runs()]
-
-
-def build_dataset(config):
-    """The phase-diagram :class:`xarray.Dataset` of a sweep (see :mod:`.aggregate`)."""
-    from fcsweep.analysis.aggregate import build_dataset as _build
-
-    return _build(config)
-
-
-def aggregate_sweep(config) -> Path:
-    """Write ``<output>/phase_diagram.nc`` (NetCDF4, CF-1.8) and return its path."""
-    from fcsweep.analysis.aggregate import aggregate_sweep as _agg
-
-    return _agg(config)
-
-
-def plot_sweep(config, *, run=None, frame=-1, outdir=None) -> list:
-    """Figures of the sweep, or a snapshot of one run; returns the written paths."""
-    from fcsweep.analysis.figures import plot_sweep as _plot
-
-    return _plot(config, run=run, frame=frame, outdir=outdir)
