@@ -27,12 +27,12 @@ replicates: 1
 grid:
   eta: [0.01, 0.1]
   v0: [0.03, 0.06]
-model: {{N: 36, density: 0.95, Dr: 0.01, dt: 0.005, modes: 6}}
+model: {{N: 36, density: 0.95, Dr: 1.0, dt: 0.005, modes: 6}}
 run: {{steps: 2000, sample_every: 50, checkpoint_every: 500, transient: 0.2}}
 """
 
 
-def write_trajectory(path, params, *, T=41, fluid=False, seed=0):
+def write_trajectory(path, params, *, T=121, fluid=False, seed=0):
     """Synthetic run in the contract's H5MD layout."""
     rng = np.random.default_rng(seed)
     N = int(params["N"])
@@ -45,7 +45,7 @@ def write_trajectory(path, params, *, T=41, fluid=False, seed=0):
         x = pos0 + np.cumsum(steps, axis=0)
         amp = 0.25
     else:
-        x = pos0 + 0.01 * rng.standard_normal((T, N, 2))
+        x = pos0 + 0.001 * rng.standard_normal((T, N, 2))
         amp = 0.02
     image = np.floor_divide(x, box).astype(np.int32)
     wrapped = x - image * box
@@ -178,7 +178,7 @@ def test_any_swept_parameter_becomes_a_dimension(tmp_path):
     (eta, v0, N, Dr, quadrature, replicate), with CF attributes on the new coordinates."""
     text = YAML.replace("  eta: [0.01, 0.1]\n  v0: [0.03, 0.06]\n",
                         "  eta: [0.1]\n  Dr: [0.003, 0.01]\n  quadrature: [binary, arc]\n")
-    text = text.replace("v0: [0.03, 0.06]", "").replace("Dr: 0.01, ", "v0: 0.03, ")
+    text = text.replace("v0: [0.03, 0.06]", "").replace("Dr: 1.0, ", "v0: 0.03, ")
     cfg = config_mod.parse_config(text.format(out=tmp_path))
     for k, spec in enumerate(cfg.runs()):
         rd = tmp_path / "runs" / spec.run_id

@@ -21,6 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fcsweep.analysis.msd import msd_curve
+
 #: Default fit window, as fractions of the analysed time span.
 FIT_WINDOW = (0.1, 0.5)
 #: D_eff below which a run is labelled solid.
@@ -90,6 +92,155 @@ def fit_diffusion(lag_time, msd, *, window=FIT_WINDOW, msd_blocks=None) -> Diffu
         tc = t[sel] - t[sel].mean()
         err = float(np.sqrt(s2 / (tc @ tc)) / 4.0)
     return DiffusionFit(float(D), err, float(icpt), lo, hi, n)
+
+
+@dataclass(frozen=True)
+class DiffusionEstimate:
+    """Result of :func:`estimate_diffusion` (D in length^2 / time).
+
+    Attributes
+    ----------
+    D, D_err : float
+        Long-time self-diffusion coefficient and its 1-sigma error, the larger of the
+        time-block error ``D_err_time`` and the cell-block error ``D_err_cells``.
+    D_err_time, D_err_cells : float
+        Error from the scatter of the ``n_time_blocks`` time blocks (holds collective
+        motion and slow relaxation; NaN with one block) and from disjoint cell subsets
+        within each block (many degrees of freedom, right for independent cells).
+    D_late, D_late_err : float
+        The same estimate from the upper half of the fit window only.
+    t_min, t_max : float
+        Fit window (lags) within each block.
+    block_span : float
+        Length of one time block.
+    n_time_blocks : int
+    persistence : bool
+        Whether the persistent start ``A (1 - exp(-t Dr))`` was fitted.
+    diffusive : bool
+        True when the slope has settled: ``D_late`` agrees with ``D`` within
+        ``3 D_late_err`` (or an absolute ``settle_tol``).
+    long_enough : bool
+        True when every block spans at least ``min_block_persistence / Dr``.
+    """
+
+    D: float
+    D_err: float
+    D_err_time: float
+    D_err_cells: float
+    D_late: float
+    D_late_err: float
+    t_min: float
+    t_max: float
+    block_span: float
+    n_time_blocks: int
+    persistence: bool
+    diffusive: bool
+    long_enough: bool
+
+
+def _design(t: np.ndarray, tau_r: float) -> tuple[np.ndarray, bool]:
+    """Columns of the linear MSD model over lags ``t``: ``4t``, ``1 - exp(-t/tau_r)``, ``1``."""
+    cols = [4.0 * t]
+    persist = bool(tau_r > 0 and np.exp(-t[0] / tau_r) > 1e-3)
+    if persist:
+        cols.append(-np.expm1(-t / tau_r))
+    cols.append(np.ones_like(t))
+    return np.stack(cols, axis=1), persist
+
+
+def _block_slopes(curves: np.ndarray, lags: np.ndarray, t: np.ndarray, tau_r: float) -> np.ndarray:
+    """D of every curve in ``curves[..., lag]`` from the model fitted over ``lags``."""
+    X, _ = _design(t[lags], tau_r)
+    w = np.linalg.pinv(X)[0]  # D is linear in the curve: D = w . msd[lags]
+    return curves[..., lags] @ w
+
+
+def _errors(Dbc: np.ndarray, cell_weights: np.ndarray) -> tuple[float, float, float]:
+    """Mean, time-block error and cell-block error of slopes ``Dbc[b, c]``."""
+    wc = cell_weights / cell_weights.sum()
+    Db = Dbc @ wc
+    B, C = Dbc.shape
+    err_t = float(Db.std(ddof=1) / np.sqrt(B)) if B > 1 else float("nan")
+    if C > 1:
+        within = np.sum(wc[None, :] ** 2 * (Dbc - Db[:, None]) ** 2, axis=1) * C / (C - 1)
+        err_c = float(np.sqrt(within.sum()) / B)
+    else:
+        err_c = float("nan")
+    return float(Db.mean()), err_t, err_c
+
+
+def estimate_diffusion(time, unwrapped, *, Dr: float, max_time_blocks: int = 8,
+                       min_block_persistence: float = 4.0, min_block_frames: int = 16,
+                       n_cell_blocks: int = 16, fit_start: float = 0.2,
+                       settle_tol: float = 0.0) -> DiffusionEstimate:
+    """Long-time self-diffusion from time blocks of a trajectory, with an honest error.
+
+    The analysed span is cut into ``B`` equal time blocks, each at least
+    ``min_block_persistence / Dr`` long (and ``min_block_frames`` frames), ``B <=
+    max_time_blocks``. In every block the drift-subtracted window MSD (variance form,
+    :func:`fcsweep.analysis.msd.msd_curve`) is fitted over lags ``[fit_start, 1] x t_hi``,
+    ``t_hi`` = half the block, to the active-Brownian form
+
+        MSD(t) = 4 D t + A (1 - exp(-Dr t)) + c,
+
+    whose second term is the persistent start of a free ABP (``A = -4 D0 / Dr``) and the
+    saturation of an ABP in a harmonic cage (``D = 0``); a linear fit would read the
+    still-rising MSD of a caged crystal as diffusion and underestimate a free ABP unless
+    the window lay far beyond ``1/Dr``. The fit is linear in the MSD, so ``D`` is the
+    mean of the block estimates. Its error is the larger of the scatter over time blocks
+    (which holds collective motion: cells that move together are one sample, not many)
+    and the scatter over ``n_cell_blocks`` disjoint cell subsets within the blocks.
+
+    Parameters
+    ----------
+    time : ndarray, shape (T,)
+        Equally spaced frame times.
+    unwrapped : ndarray, shape (T, N, 2)
+        Unwrapped centroids.
+    Dr : float
+        Rotational diffusion (sets the persistence time ``1/Dr``; 0 or non-finite: a
+        linear fit ``4 D t + c``).
+    max_time_blocks, min_block_persistence, min_block_frames, n_cell_blocks, fit_start
+        See above.
+    settle_tol : float
+        Absolute difference of ``D_late`` and ``D`` always accepted as settled.
+
+    Returns
+    -------
+    DiffusionEstimate
+    """
+    time = np.asarray(time, dtype=float)
+    x = np.asarray(unwrapped, dtype=float)
+    T = x.shape[0]
+    h = float(time[1] - time[0])
+    span = float(time[-1] - time[0])
+    tau_r = 1.0 / float(Dr) if np.isfinite(Dr) and Dr > 0 else 0.0
+    L_min = max(min_block_persistence * tau_r, (min_block_frames - 1) * h)
+    B = int(min(max_time_blocks, span // L_min)) if L_min > 0 else 1
+    long_enough = B >= 1
+    B = max(B, 1)
+    Lf = T // B
+    hi = Lf // 2
+    lo = max(1, int(np.ceil(fit_start * hi)))
+    lags = np.arange(lo, hi + 1)
+    late = np.arange(max(lo, hi // 2), hi + 1)
+    nan = float("nan")
+    t = np.arange(Lf) * h
+    if lags.size < 3 or late.size < 3:
+        return DiffusionEstimate(nan, nan, nan, nan, nan, nan, lo * h, hi * h, (Lf - 1) * h, B,
+                                 False, False, False)
+    C = max(1, min(int(n_cell_blocks), x.shape[1]))
+    curves = np.empty((B, C, Lf))
+    for b in range(B):
+        _, curves[b] = msd_curve(x[b * Lf:(b + 1) * Lf], n_blocks=C)
+    cell_w = np.array([len(range(c, x.shape[1], C)) for c in range(C)], dtype=float)
+    D, err_t, err_c = _errors(_block_slopes(curves, lags, t, tau_r), cell_w)
+    Dl, errl_t, errl_c = _errors(_block_slopes(curves, late, t, tau_r), cell_w)
+    err, err_late = np.nanmax([err_t, err_c]), np.nanmax([errl_t, errl_c])
+    diffusive = bool(abs(Dl - D) <= max(3.0 * err_late, settle_tol))
+    _, persist = _design(t[lags], tau_r)
+    return DiffusionEstimate(D, float(err), err_t, err_c, Dl, float(err_late), lo * h, hi * h,
+                             (Lf - 1) * h, B, persist, diffusive, long_enough)
 
 
 def effective_diffusion(D_s: float, D_s_err: float, v0: float, Dr: float):

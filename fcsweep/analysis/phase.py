@@ -1,15 +1,33 @@
-"""Phase and percolation labels (MODEL.md): integer codes with CF flag attributes.
+"""Phase and percolation labels: integer codes with CF flag attributes, and their confidence.
 
 solid       if D_eff < 1e-3;
 soft-fluid  otherwise, if <q> > 3.81;
 fluid       otherwise.
 percolated  if rho_d > 1/2.
 Unknown (-1) wherever an input is NaN.
+
+With errors (:func:`classify_phase`, :func:`classify_percolation`) every observable is
+taken as Gaussian about its estimate with its 1-sigma error, so that
+
+    P(solid) = Phi((1e-3 - D_eff) / D_eff_err),
+    P(soft fluid) = (1 - P(solid)) Phi((<q> - 3.81) / q_err),
+    P(fluid) = (1 - P(solid)) (1 - Phi((<q> - 3.81) / q_err)),
+    P(percolated) = Phi((rho_d - 1/2) / rho_d_err),
+
+and the label is the most probable one when its probability reaches ``min_confidence``
+(default Phi(1) = 0.841: a single deciding observable one error away from its
+threshold), else *undetermined* (code 3 for the phase, 2 for percolation). A label
+whose diffusion estimate is not trustworthy (run too short for the persistence time,
+MSD slope not settled) is undetermined whatever the numbers say. The confidence
+reported is the probability of the most probable label; the reason says what decided.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
+from scipy.special import ndtr
 
 from fcsweep.analysis.diffusion import D_EFF_SOLID
 from fcsweep.model.shape import Q_STAR
@@ -17,12 +35,16 @@ from fcsweep.model.shape import Q_STAR
 #: Percolation threshold of the defect fraction (site percolation on a triangular lattice).
 RHO_D_PERCOLATION = 0.5
 
-PHASE_UNKNOWN, PHASE_SOLID, PHASE_FLUID, PHASE_SOFT_FLUID = -1, 0, 1, 2
+PHASE_UNKNOWN, PHASE_SOLID, PHASE_FLUID, PHASE_SOFT_FLUID, PHASE_UNDETERMINED = -1, 0, 1, 2, 3
 #: Codes and CF ``flag_meanings`` (blank-separated words) of the phase label.
 PHASE_FLAGS = {PHASE_UNKNOWN: "unknown", PHASE_SOLID: "solid", PHASE_FLUID: "fluid",
-               PHASE_SOFT_FLUID: "soft_fluid"}
+               PHASE_SOFT_FLUID: "soft_fluid", PHASE_UNDETERMINED: "undetermined"}
+PERCOLATION_UNDETERMINED = 2
 #: Codes of the percolation label.
-PERCOLATION_FLAGS = {-1: "unknown", 0: "not_percolated", 1: "percolated"}
+PERCOLATION_FLAGS = {-1: "unknown", 0: "not_percolated", 1: "percolated",
+                     PERCOLATION_UNDETERMINED: "undetermined"}
+#: Default probability a label needs: Phi(1), one error away from a single threshold.
+MIN_CONFIDENCE = float(ndtr(1.0))
 
 
 def phase_code(D_eff, q_mean, *, d_solid: float = D_EFF_SOLID, q_star: float = Q_STAR):
@@ -48,6 +70,106 @@ def phase_code(D_eff, q_mean, *, d_solid: float = D_EFF_SOLID, q_star: float = Q
 def phase_name(code: int) -> str:
     """Human-readable name of a phase code ('soft-fluid' with a hyphen)."""
     return PHASE_FLAGS.get(int(code), "unknown").replace("_", "-")
+
+
+@dataclass(frozen=True)
+class Label:
+    """A label with its confidence: ``code`` (see the flag tables), ``confidence``
+    (probability of the most probable label, NaN when unknown) and ``reason``."""
+
+    code: int
+    confidence: float
+    reason: str
+
+
+def _p_above(x: float, err: float, threshold: float) -> float:
+    """P(true value > threshold) for a Gaussian estimate ``x +- err`` (err 0: a step)."""
+    if err > 0:
+        return float(ndtr((x - threshold) / err))
+    return 1.0 if x > threshold else (0.5 if x == threshold else 0.0)
+
+
+def phase_probabilities(D_eff, D_eff_err, q_mean, q_mean_err, *, d_solid: float = D_EFF_SOLID,
+                        q_star: float = Q_STAR) -> dict:
+    """Probabilities of solid, fluid and soft fluid from Gaussian estimates (see module doc).
+
+    Returns
+    -------
+    dict
+        phase code -> probability; NaN errors give NaN probabilities.
+    """
+    p_solid = 1.0 - _p_above(float(D_eff), float(D_eff_err), d_solid)
+    p_soft = _p_above(float(q_mean), float(q_mean_err), q_star)
+    if not np.isfinite(q_mean):
+        p_soft = float("nan")
+    return {PHASE_SOLID: p_solid, PHASE_SOFT_FLUID: (1 - p_solid) * p_soft,
+            PHASE_FLUID: (1 - p_solid) * (1 - p_soft)}
+
+
+def _fmt(x: float, e: float) -> str:
+    return f"{x:.3g} +- {e:.2g}"
+
+
+def classify_phase(D_eff, D_eff_err, q_mean, q_mean_err, *, diffusion_ok: bool = True,
+                   diffusion_note: str = "", min_confidence: float = MIN_CONFIDENCE,
+                   d_solid: float = D_EFF_SOLID, q_star: float = Q_STAR) -> Label:
+    """Phase label of one run or point with its confidence and the reason.
+
+    Parameters
+    ----------
+    D_eff, D_eff_err, q_mean, q_mean_err : float
+        Estimates and 1-sigma errors.
+    diffusion_ok : bool
+        False when the D_eff estimate cannot be trusted (run too short, MSD not
+        diffusive): the label is then undetermined with ``diffusion_note`` as reason.
+    min_confidence : float
+        Probability the most probable label needs.
+
+    Returns
+    -------
+    Label
+    """
+    D, De, q, qe = (float(v) for v in (D_eff, D_eff_err, q_mean, q_mean_err))
+    if not np.isfinite(D):
+        return Label(PHASE_UNKNOWN, float("nan"), "D_eff not available")
+    if not np.isfinite(De):
+        return Label(PHASE_UNDETERMINED, float("nan"), "D_eff has no error estimate")
+    if np.isfinite(q) and np.isfinite(qe):
+        p = phase_probabilities(D, De, q, qe, d_solid=d_solid, q_star=q_star)
+    else:
+        p = {PHASE_SOLID: 1.0 - _p_above(D, De, d_solid)}
+        if p[PHASE_SOLID] < min_confidence:  # fluid or soft fluid: <q> must decide
+            if not np.isfinite(q):
+                return Label(PHASE_UNKNOWN, float("nan"), "<q> not available")
+            return Label(PHASE_UNDETERMINED, float("nan"), "<q> has no error estimate")
+    best = max(p, key=lambda k: p[k])
+    conf = float(p[best])
+    if not diffusion_ok:
+        return Label(PHASE_UNDETERMINED, conf, diffusion_note or "D_eff estimate not trustworthy")
+    if conf < min_confidence:
+        if min(p[PHASE_SOLID], 1 - p[PHASE_SOLID]) >= 1 - min_confidence:
+            why = f"D_eff = {_fmt(D, De)} too close to the solid threshold {d_solid:g}"
+        else:
+            why = f"<q> = {_fmt(q, qe)} too close to {q_star:g}"
+        return Label(PHASE_UNDETERMINED, conf, f"{why} (P = {conf:.2f} < {min_confidence:.2f})")
+    return Label(int(best), conf, f"P({phase_name(best)}) = {conf:.3f}")
+
+
+def classify_percolation(rho_d, rho_d_err, *, min_confidence: float = MIN_CONFIDENCE,
+                         threshold: float = RHO_D_PERCOLATION) -> Label:
+    """Percolation label of one run or point with its confidence and the reason."""
+    r, e = float(rho_d), float(rho_d_err)
+    if not np.isfinite(r):
+        return Label(-1, float("nan"), "rho_d not available")
+    if not np.isfinite(e):
+        return Label(PERCOLATION_UNDETERMINED, float("nan"), "rho_d has no error estimate")
+    p = _p_above(r, e, threshold)
+    conf = max(p, 1 - p)
+    if conf < min_confidence:
+        return Label(PERCOLATION_UNDETERMINED, conf,
+                     f"rho_d = {_fmt(r, e)} too close to {threshold:g} (P = {conf:.2f} < {min_confidence:.2f})")
+    code = int(p >= 0.5)
+    return Label(code, conf, f"P({PERCOLATION_FLAGS[code]}) = {conf:.3f}")
 
 
 def percolation_code(rho_d, *, threshold: float = RHO_D_PERCOLATION):

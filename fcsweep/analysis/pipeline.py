@@ -12,12 +12,18 @@ Entry points called by the CLI (``fcsweep analyze | aggregate | plot``):
 
 Analysis settings (``DEFAULT_SETTINGS``; stored with every result):
 
-- ``transient``: fraction of the recorded frames discarded at the start;
-- MSD on all post-transient frames; D_s fitted over lags in ``fit_window`` x span, error
-  from ``n_blocks`` disjoint cell subsets (see :mod:`fcsweep.analysis.diffusion`);
+- ``transient``: fraction of the recorded frames discarded at the start; after it,
+  automatic equilibration detection (:mod:`fcsweep.analysis.stats`) on the frame series
+  of ``<q>`` and ``rho_d`` may cut more: the MSD uses the frames from the later of the
+  two starts (``t_equilibrated``);
+- D_s from ``max_time_blocks`` time blocks of at least ``min_block_persistence / Dr``,
+  fitted to the active-Brownian MSD form from ``fit_start`` x half a block on, error
+  from time blocks and ``n_blocks`` cell subsets (see :func:`fcsweep.analysis.diffusion.estimate_diffusion`);
 - q on up to ``shape_frames`` evenly spaced frames; Voronoi defects and clusters and
   |Psi6| on up to ``structure_frames`` frames; G6 and Gr on up to
-  ``correlation_frames`` frames (they cost O(N * pairs within L/2));
+  ``correlation_frames`` frames (they cost O(N * pairs within L/2)); every frame
+  average carries the error of a correlated time series;
+- labels need the probability ``label_confidence`` (see :mod:`fcsweep.analysis.phase`);
 - lengths of G6(r) and Gr(dx, 0) in units of R0, bin widths ``g6_dr`` and ``gr_dx``.
 """
 
@@ -36,7 +42,8 @@ import numpy as np
 from fcsweep import __version__
 from fcsweep.analysis import diffusion, order, shapes, voronoi
 from fcsweep.analysis.msd import log_lag_indices, msd_curve
-from fcsweep.analysis.phase import percolation_code, phase_code
+from fcsweep.analysis.phase import MIN_CONFIDENCE, classify_percolation, classify_phase
+from fcsweep.analysis.stats import time_average
 from fcsweep.analysis.trajectory import TrajectoryError, open_trajectory
 from fcsweep.sweep.layout import worker_layout
 
@@ -47,8 +54,11 @@ DATASET_FILE = "phase_diagram.nc"
 
 DEFAULT_SETTINGS = {
     "transient": 0.2,
-    "fit_window": [0.1, 0.5],
+    "fit_start": 0.2,
+    "max_time_blocks": 8,
+    "min_block_persistence": 4.0,
     "n_blocks": 16,
+    "label_confidence": round(MIN_CONFIDENCE, 4),
     "subtract_drift": True,
     "msd_lags": 120,
     "shape_frames": 200,
@@ -61,10 +71,15 @@ DEFAULT_SETTINGS = {
 }
 
 #: Scalar observables stored as attributes of ``/observables`` in analysis.h5.
-SCALARS = ("D_s", "D_s_err", "D0", "D_eff", "D_eff_err", "fit_t_min", "fit_t_max",
-           "q_mean", "q_std", "q_frac_above", "rho_d", "rho_d_err",
+SCALARS = ("D_s", "D_s_err", "D0", "D_eff", "D_eff_err", "D_eff_err_time", "D_eff_err_cells",
+           "D_eff_late", "D_eff_late_err", "msd_diffusive", "msd_long_enough", "n_time_blocks",
+           "block_span", "fit_t_min", "fit_t_max",
+           "q_mean", "q_mean_err", "q_std", "q_frac_above", "q_frac_above_err", "rho_d", "rho_d_err",
            "largest_cluster_fraction", "largest_cluster_fraction_err", "psi6", "psi6_err",
-           "n_frames", "t_start", "t_end", "phase", "percolated")
+           "n_frames", "t_start", "t_end", "t_equilibrated",
+           "phase", "phase_confidence", "percolated", "percolated_confidence")
+#: Label explanations stored as string attributes of ``/observables``.
+REASONS = ("phase_reason", "percolated_reason")
 #: Curves stored as datasets of ``/curves``: name -> coordinate dataset name.
 CURVES = {"msd": "lag_time", "q_hist": "q_bin", "G6": "r", "Gr": "dx",
           "cluster_size_distribution": "cluster_size"}
@@ -128,46 +143,39 @@ def compute_observables(traj, settings: dict) -> tuple[dict, dict, dict]:
         raise AnalysisError(f"{traj.path}: frames are not equally spaced in time")
     sc, cv = {}, {}
 
-    # --- MSD and D_eff
-    x = traj.unwrapped(frames)
-    if not np.all(np.isfinite(x)):
-        raise AnalysisError(f"{traj.path}: non-finite positions after the transient")
-    msd, blocks = msd_curve(x, subtract_drift=bool(settings["subtract_drift"]),
-                            n_blocks=int(settings["n_blocks"]))
-    fit = diffusion.fit_diffusion(time, msd, window=settings["fit_window"], msd_blocks=blocks)
-    D_eff, D_eff_err = diffusion.effective_diffusion(fit.D, fit.D_err, v0, Dr)
-    sc.update(D_s=fit.D, D_s_err=fit.D_err, D0=diffusion.free_diffusion(v0, Dr),
-              D_eff=D_eff, D_eff_err=D_eff_err, fit_t_min=fit.t_min, fit_t_max=fit.t_max,
-              n_frames=float(frames.size), t_start=float(traj.time[frames[0]]),
-              t_end=float(traj.time[frames[-1]]))
-    lags = log_lag_indices(frames.size, int(settings["msd_lags"]))
-    cv["msd"] = (time[lags], msd[lags])
-    del x
-
-    # --- shape index
+    # --- shape index: per-frame <q> and fraction above q*, time averages with errors
     lo, hi, nb = settings["q_edges"]
     edges = np.linspace(float(lo), float(hi), int(nb) + 1)
     centres = 0.5 * (edges[1:] + edges[:-1])
     sf = _evenly(frames, int(settings["shape_frames"]))
     if traj.modes_width == 0 and int(p.get("modes", 1) or 0) == 0:
-        q = np.full((1, N), shapes.Q_CIRCLE)  # rigid discs
+        q = np.full((sf.size, N), shapes.Q_CIRCLE)  # rigid discs
     elif "shape_a" in traj.fields and "shape_b" in traj.fields:
         q = shapes.shape_indices(traj.read("shape_a", sf), traj.read("shape_b", sf), 1.0,
                                  int(settings["q_points"]))
     else:
         q = np.full((1, N), np.nan)  # shapes not stored
     qs = shapes.q_statistics(q, edges)
-    sc.update(q_mean=qs["q_mean"], q_std=qs["q_std"], q_frac_above=qs["q_frac_above"])
+    sc["q_std"] = qs["q_std"]
     cv["q_hist"] = (centres, qs["q_hist"])
+    starts = []
+    if np.all(np.isfinite(q)):
+        for name, series in (("q_mean", q.mean(axis=1)), ("q_frac_above", (q > shapes.Q_STAR).mean(axis=1))):
+            ta = time_average(series)
+            sc[name], sc[f"{name}_err"] = ta.mean, ta.err
+            if name == "q_mean":
+                starts.append(sf[ta.start])
+    else:
+        sc.update(q_mean=np.nan, q_mean_err=np.nan, q_frac_above=np.nan, q_frac_above_err=np.nan)
 
     # --- Voronoi defects, clusters, |Psi6| (lengths in units of R0 from here on)
     vf = _evenly(frames, int(settings["structure_frames"]))
     pos = traj.read("position", vf) / R0
     boxr = box / R0
     ds = voronoi.defect_statistics(pos, boxr)
-    sc.update(rho_d=ds["rho_d"], rho_d_err=ds["rho_d_err"],
-              largest_cluster_fraction=ds["largest_cluster_fraction"],
-              largest_cluster_fraction_err=ds["largest_cluster_fraction_err"])
+    for name in ("rho_d", "largest_cluster_fraction"):
+        sc[name], sc[f"{name}_err"] = ds[name], ds[f"{name}_err"]
+    starts.append(vf[ds["rho_d_start"]])
     counts = ds["cluster_size_counts"]
     cv["cluster_size_distribution"] = (np.arange(1, N + 1), counts.astype(float))
 
@@ -185,17 +193,57 @@ def compute_observables(traj, settings: dict) -> tuple[dict, dict, dict]:
             dxs, gr = order.gr_cut(P, boxr, ang, dx=float(settings["gr_dx"]))
             g6s.append(g)
             grs.append(gr)
-    mods = np.asarray(mods)
-    sc["psi6"] = float(mods.mean())
-    sc["psi6_err"] = float(mods.std(ddof=1) / np.sqrt(mods.size)) if mods.size > 1 else float("nan")
+    ta = time_average(np.asarray(mods))
+    sc["psi6"], sc["psi6_err"] = ta.mean, ta.err
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # bins without pairs in every frame
         cv["G6"] = (r, np.nanmean(np.asarray(g6s), axis=0) if r.size else r.copy())
         cv["Gr"] = (dxs, np.mean(np.asarray(grs), axis=0))
 
-    # --- labels
-    sc["phase"] = float(phase_code(sc["D_eff"], sc["q_mean"]))
-    sc["percolated"] = float(percolation_code(sc["rho_d"]))
+    # --- MSD (all frames, for the curve) and D_eff (from the equilibrated frames)
+    eq = frames[frames >= max(starts)]
+    if eq.size < 3:
+        eq = frames
+    x = traj.unwrapped(frames)
+    if not np.all(np.isfinite(x)):
+        raise AnalysisError(f"{traj.path}: non-finite positions after the transient")
+    msd, _ = msd_curve(x, subtract_drift=bool(settings["subtract_drift"]), n_blocks=1)
+    lags = log_lag_indices(frames.size, int(settings["msd_lags"]))
+    cv["msd"] = (time[lags], msd[lags])
+    x = x[eq - frames[0]]
+    est = diffusion.estimate_diffusion(
+        traj.time[eq] - traj.time[eq[0]], x, Dr=Dr, max_time_blocks=int(settings["max_time_blocks"]),
+        min_block_persistence=float(settings["min_block_persistence"]),
+        n_cell_blocks=int(settings["n_blocks"]), fit_start=float(settings["fit_start"]),
+        settle_tol=0.1 * diffusion.D_EFF_SOLID * diffusion.free_diffusion(v0, Dr))
+    del x
+    D0 = diffusion.free_diffusion(v0, Dr)
+    conv = (lambda d: diffusion.effective_diffusion(d, 0.0, v0, Dr)[0])
+    sc.update(D_s=est.D, D_s_err=est.D_err, D0=D0, D_eff=conv(est.D), D_eff_err=conv(est.D_err),
+              D_eff_err_time=conv(est.D_err_time), D_eff_err_cells=conv(est.D_err_cells),
+              D_eff_late=conv(est.D_late), D_eff_late_err=conv(est.D_late_err),
+              msd_diffusive=float(est.diffusive), msd_long_enough=float(est.long_enough),
+              n_time_blocks=float(est.n_time_blocks), block_span=est.block_span,
+              fit_t_min=est.t_min, fit_t_max=est.t_max,
+              n_frames=float(eq.size), t_start=float(traj.time[frames[0]]),
+              t_end=float(traj.time[frames[-1]]), t_equilibrated=float(traj.time[eq[0]]))
+
+    # --- labels with their confidence
+    note = ""
+    if not est.long_enough:
+        note = (f"run too short for D_eff: {est.block_span:.4g} time units analysed, "
+                f"need {float(settings['min_block_persistence']):g}/Dr = "
+                f"{float(settings['min_block_persistence']) / Dr:.4g}")
+    elif not est.diffusive:
+        note = (f"MSD not diffusive within the run: D_eff from the late half of the fit window "
+                f"{sc['D_eff_late']:.3g} +- {sc['D_eff_late_err']:.2g} against {sc['D_eff']:.3g}")
+    conf = float(settings["label_confidence"])
+    lab = classify_phase(sc["D_eff"], sc["D_eff_err"], sc["q_mean"], sc["q_mean_err"],
+                         diffusion_ok=not note, diffusion_note=note, min_confidence=conf)
+    sc.update(phase=float(lab.code), phase_confidence=lab.confidence, phase_reason=lab.reason)
+    lab = classify_percolation(sc["rho_d"], sc["rho_d_err"], min_confidence=conf)
+    sc.update(percolated=float(lab.code), percolated_confidence=lab.confidence,
+              percolated_reason=lab.reason)
     extra = {"n_sides_counts": ds["n_sides_counts"], "frames": frames,
              "structure_frames": vf, "shape_frames": sf}
     return sc, cv, extra
@@ -207,7 +255,8 @@ def read_analysis(path) -> dict:
     """Read an ``analysis.h5``: ``{"scalars", "curves", "settings", "attrs"}``."""
     with h5py.File(path, "r", locking=False) as f:
         attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items()}
-        sc = {k: float(v) for k, v in f["observables"].attrs.items()}
+        sc = {k: (v.decode() if isinstance(v, bytes) else str(v)) if k in REASONS else float(v)
+              for k, v in f["observables"].attrs.items()}
         cv = {name: (f["curves"][coord][()], f["curves"][name][()])
               for name, coord in CURVES.items() if name in f["curves"]}
     return {"scalars": sc, "curves": cv, "settings": json.loads(attrs.get("settings_json", "{}")),
@@ -227,6 +276,8 @@ def _write_analysis(out_path: Path, traj, settings, sc, cv, extra) -> None:
         g = f.create_group("observables")
         for k in SCALARS:
             g.attrs[k] = np.float64(sc[k])
+        for k in REASONS:
+            g.attrs[k] = str(sc[k])
         c = f.create_group("curves")
         for name, coord in CURVES.items():
             x, y = cv[name]

@@ -17,6 +17,8 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
+from fcsweep.analysis.stats import time_average
+
 
 def freud_system(pos: np.ndarray, box) -> tuple:
     """A freud ``(Box, points)`` system for 2-D positions in ``[0, Lx) x [0, Ly)``."""
@@ -114,8 +116,11 @@ def defect_statistics(frames_pos, box) -> dict:
     Returns
     -------
     dict
-        ``rho_d`` (mean defect fraction), ``rho_d_err`` (standard error over frames),
-        ``largest_cluster_fraction`` (mean of s_max / N), ``largest_cluster_fraction_err``,
+        ``rho_d`` (defect fraction), ``largest_cluster_fraction`` (s_max / N): time
+        averages (:func:`fcsweep.analysis.stats.time_average`, after equilibration
+        detection) with ``_err`` (1-sigma, autocorrelation of the frame series) and
+        ``_start`` (first frame kept); ``rho_d_frames`` and
+        ``largest_cluster_fraction_frames`` (the per-frame series),
         ``cluster_size_counts`` (int, shape (N,), pooled over frames),
         ``n_sides_counts`` (int, shape (13,), cells with 0..12 sides pooled), ``n_frames``.
     """
@@ -132,8 +137,9 @@ def defect_statistics(frames_pos, box) -> dict:
         pmax[f] = sizes[0] / N if sizes.size else 0.0
         counts += cluster_size_counts(sizes, N)
         sides += np.bincount(np.minimum(vn.n_sides, 12), minlength=13)
-    sem = (lambda x: float(x.std(ddof=1) / np.sqrt(len(x))) if len(x) > 1 else float("nan"))
-    return {"rho_d": float(rho.mean()), "rho_d_err": sem(rho),
-            "largest_cluster_fraction": float(pmax.mean()),
-            "largest_cluster_fraction_err": sem(pmax),
-            "cluster_size_counts": counts, "n_sides_counts": sides, "n_frames": F}
+    out = {"cluster_size_counts": counts, "n_sides_counts": sides, "n_frames": F,
+           "rho_d_frames": rho, "largest_cluster_fraction_frames": pmax}
+    for name, series in (("rho_d", rho), ("largest_cluster_fraction", pmax)):
+        ta = time_average(series)
+        out.update({name: ta.mean, f"{name}_err": ta.err, f"{name}_start": ta.start})
+    return out

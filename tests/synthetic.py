@@ -1,0 +1,65 @@
+"""Synthetic data with known answers for the statistics tests (not part of the package).
+
+- :func:`ar1`: AR(1) series, integrated autocorrelation time ``(1 + phi) / (1 - phi)``.
+- :func:`abp_positions`: free or harmonically caged active Brownian particles,
+  exact in distribution for the free ones (Euler steps much shorter than 1/Dr and 1/k).
+- :func:`collective_positions`: cells moved by a few box-wide displacement modes with
+  random-walk amplitudes, plus independent thermal noise.
+"""
+
+import numpy as np
+from scipy.signal import lfilter
+
+
+def ar1(phi, n, rng, x0=None):
+    """AR(1) series ``x_t = phi x_{t-1} + eps_t``, started stationary (or at ``x0``)."""
+    e = rng.normal(size=n)
+    e[0] = e[0] / np.sqrt(1 - phi ** 2) if x0 is None else x0
+    return lfilter([1.0], [1.0, -phi], e)
+
+
+def abp_positions(n_particles, n_frames, frame_dt, *, v0, Dr, k=0.0, substeps=10, rng):
+    """Unwrapped positions (n_frames, n_particles, 2) of ABPs, free (k = 0) or in harmonic cages.
+
+    Integrated with ``substeps`` Euler steps per frame (the cage relaxation exp(-k h) and
+    the rotational diffusion are exact per sub-step); cages start at the stationary
+    spread so no transient is left.
+    """
+    h = frame_dt / substeps
+    theta = rng.uniform(0, 2 * np.pi, n_particles)
+    site = rng.uniform(0, 50, (n_particles, 2))
+    r = np.zeros((n_particles, 2))
+    if k > 0:  # burn in 20 slowest relaxation times
+        burn = int(20 * max(1 / k, 1 / Dr) / h)
+        for _ in range(burn):
+            r += h * (v0 * np.stack([np.cos(theta), np.sin(theta)], 1) - k * r)
+            theta += np.sqrt(2 * Dr * h) * rng.normal(size=n_particles)
+    out = np.empty((n_frames, n_particles, 2))
+    for f in range(n_frames):
+        out[f] = site + r
+        for _ in range(substeps):
+            r += h * (v0 * np.stack([np.cos(theta), np.sin(theta)], 1) - k * r)
+            theta += np.sqrt(2 * Dr * h) * rng.normal(size=n_particles)
+    return out
+
+
+def collective_positions(n_side, n_frames, *, modes=4, amp_step=0.3, noise=0.02, rng):
+    """Cells on an n_side x n_side square lattice (box n_side) moved by collective modes.
+
+    Displacement of cell i at frame t: ``sum_m A_m(t) * e_m * cos(k_m . x_i + phi_m)``
+    with random-walk amplitudes ``A_m`` (steps ``amp_step``), wave vectors of the box and
+    random polarisations ``e_m``, plus an independent random walk of step ``noise`` per
+    cell. Returns unwrapped positions (n_frames, n_side**2, 2).
+    """
+    g = np.arange(n_side) + 0.5
+    X = np.stack(np.meshgrid(g, g, indexing="ij"), -1).reshape(-1, 2)
+    N = len(X)
+    kk = 2 * np.pi / n_side * rng.integers(1, 3, size=(modes, 2)) * rng.choice([-1, 1], size=(modes, 2))
+    phase = rng.uniform(0, 2 * np.pi, modes)
+    ang = rng.uniform(0, 2 * np.pi, modes)
+    e = np.stack([np.cos(ang), np.sin(ang)], -1)
+    shape = np.cos(X @ kk.T + phase)  # (N, modes)
+    A = np.cumsum(rng.normal(scale=amp_step, size=(n_frames, modes)), axis=0)
+    own = np.cumsum(rng.normal(scale=noise, size=(n_frames, N, 2)), axis=0)
+    disp = np.einsum("tm,nm,md->tnd", A, shape, e)
+    return X[None] + disp + own
