@@ -260,10 +260,19 @@ def analyze(config, output, workers, force):
 @OUTPUT_OPT
 def aggregate(config, output):
     """Collect per-run analyses into <output>/phase_diagram.nc."""
-    from fcsweep.analysis.aggregate import aggregate_sweep
+    import xarray as xr
+
+    from fcsweep.analysis.aggregate import aggregate_sweep, unanalysed_runs
 
     cfg = _load(config, output)
-    click.echo(str(aggregate_sweep(cfg)))
+    path = aggregate_sweep(cfg)
+    click.echo(str(path))
+    with xr.open_dataset(path) as ds:
+        missing = unanalysed_runs(ds)
+    if missing:
+        click.echo(f"{len(missing)} finished run(s) have no usable analysis (NaN in the dataset): "
+                   + ", ".join(f"{r} ({w})" for r, w in missing) + "; see `fcsweep analyze`", err=True)
+        sys.exit(1)
 
 
 @cli.command()

@@ -6,6 +6,7 @@ large eta gives a vibrating lattice (solid), small eta a diffusing, deformed flu
 """
 
 import json
+from pathlib import Path
 
 import h5py
 import numpy as np
@@ -15,7 +16,7 @@ import xarray as xr
 from fcsweep.analysis.aggregate import aggregate_sweep, build_dataset
 from fcsweep.analysis.figures import plot_sweep
 from fcsweep.analysis.pipeline import analyze_run, analyze_sweep, read_analysis
-from fcsweep.analysis.phase import PHASE_SOLID
+from fcsweep.analysis.phase import PHASE_SOLID, PHASE_UNDETERMINED
 from fcsweep.model.lattice import hexagonal_lattice
 
 config_mod = pytest.importorskip("fcsweep.config")
@@ -148,7 +149,7 @@ def test_dataset_round_trip_and_contents(sweep, tmp_path):
     assert ds.attrs["Conventions"] == "CF-1.8"
     assert list(ds["D_eff"].dims) == ["eta", "v0", "N", "replicate"]
     for v in ds.variables:
-        if v not in ("nv",):
+        if v not in ("nv", "q_bin_bounds"):  # CF: a bounds variable inherits its attributes
             assert "long_name" in ds[v].attrs, v
     for v in ("D_eff", "q_mean", "q_hist", "rho_d", "largest_cluster_fraction", "psi6", "msd",
               "G6", "Gr", "phase", "percolated", "status", "D_eff_err"):
@@ -162,6 +163,14 @@ def test_dataset_round_trip_and_contents(sweep, tmp_path):
     solid = ds.sel(eta=0.1, v0=0.03).squeeze()
     assert solid["phase"].item() == PHASE_SOLID and solid["psi6"].item() > 0.9
     assert "flag_meanings" in ds["phase"].attrs
+    assert "undetermined" in ds["phase"].attrs["flag_meanings"].split()
+    # every observable carries an error and every label a confidence and a reason
+    for v in ("D_eff", "D_s", "q_mean", "q_frac_above", "rho_d", "largest_cluster_fraction", "psi6"):
+        assert f"{v}_err" in ds, v
+    assert solid["phase_confidence"].item() > 0.95 and solid["phase_reason"].item().startswith("P(solid)")
+    # CF-1.8 knows no int64; strings are character arrays
+    assert not [v for v in ds.variables if ds[v].dtype == np.int64]
+    assert solid["seed"].item() == str(runs[2].params["seed"])
 
 
 def test_figures_are_written(sweep, tmp_path):
@@ -193,3 +202,76 @@ def test_any_swept_parameter_becomes_a_dimension(tmp_path):
     assert np.all(np.isfinite(ds["q_mean"].values))
     paths = plot_sweep(cfg)
     assert paths and all(p.stat().st_size > 0 for p in paths)
+
+
+def _short_sweep(out, replicates=1, Dr=1.0):
+    cfg = config_mod.parse_config(YAML.replace("replicates: 1", f"replicates: {replicates}")
+                                  .replace("Dr: 1.0", f"Dr: {Dr}").format(out=out))
+    for k, spec in enumerate(cfg.runs()):
+        rd = out / "runs" / spec.run_id
+        rd.mkdir(parents=True)
+        write_trajectory(rd / "trajectory.h5", {**dict(spec.params), "run_id": spec.run_id},
+                         fluid=spec.params["eta"] < 0.05, seed=k)
+        (rd / "status.json").write_text(json.dumps({"status": "done", "reason": ""}))
+    analyze_sweep(cfg)
+    return cfg
+
+
+def test_replicates_reduce_to_a_mean_with_error_and_a_chi2(tmp_path):
+    """3 replicates: <name>_rmean is their mean, its error at least the propagated one,
+    <name>_rchi2 the scatter check; the point label comes from the replicate means."""
+    cfg = _short_sweep(tmp_path, replicates=3)
+    ds = xr.open_dataset(aggregate_sweep(cfg)).load()
+    for v in ("D_eff", "q_mean", "rho_d", "psi6", "largest_cluster_fraction", "q_frac_above"):
+        assert ds[f"{v}_rmean"].dims == ("eta", "v0", "N")
+        np.testing.assert_allclose(ds[f"{v}_rmean"], ds[v].mean("replicate"), rtol=1e-12)
+    prop = np.sqrt((ds["D_eff_err"] ** 2).sum("replicate")) / 3
+    assert np.all(ds["D_eff_rmean_err"] >= prop - 1e-15)
+    assert np.all(np.isfinite(ds["D_eff_rchi2"]))
+    assert ds["phase_point"].sel(eta=0.1).values.ravel().tolist() == [PHASE_SOLID] * 2
+    assert np.all(ds["phase_point_confidence"].sel(eta=0.1) > 0.95)
+
+
+def test_run_too_short_for_its_persistence_time_is_undetermined(tmp_path):
+    """Dr = 0.01: 1/Dr = 100 time units, but the runs span 0.6: no label, a reason."""
+    cfg = _short_sweep(tmp_path, Dr=0.01)
+    ds = xr.open_dataset(aggregate_sweep(cfg)).load()
+    assert np.all(ds["phase"].values == PHASE_UNDETERMINED)
+    assert all("too short" in r for r in ds["phase_reason"].values.ravel())
+    assert np.all(ds["msd_long_enough"].values == 0)
+
+
+def test_failed_analysis_leaves_no_stale_file_and_aggregate_names_it(tmp_path):
+    from click.testing import CliRunner
+
+    from fcsweep.cli import cli
+
+    cfg = _short_sweep(tmp_path)
+    victim = cfg.runs()[1]
+    traj = tmp_path / "runs" / victim.run_id / "trajectory.h5"
+    assert (traj.parent / "analysis.h5").exists()
+    traj.write_bytes(traj.read_bytes()[:2000])  # truncated
+    res = dict((r, s) for r, s, _ in analyze_sweep(cfg, force=True))
+    assert res[victim.run_id] == "failed"
+    assert not (traj.parent / "analysis.h5").exists()
+    cfg_file = tmp_path / "sweep.yaml"
+    cfg_file.write_text(YAML.format(out=tmp_path))
+    out = CliRunner().invoke(cli, ["aggregate", str(cfg_file)])
+    assert out.exit_code == 1
+    assert victim.run_id in out.output and "analysis_failed" in out.output
+
+
+def test_phase_diagram_passes_the_cf_checker(sweep):
+    """IOOS compliance-checker cf:1.8 (optional extra 'cf'): no errors, no warnings."""
+    pytest.importorskip("compliance_checker")
+    import subprocess
+    import sys
+
+    cfg, _, _ = sweep
+    path = aggregate_sweep(cfg)
+    exe = Path(sys.executable).with_name("compliance-checker")
+    r = subprocess.run([str(exe), "--test=cf:1.8", "--format=json", "-o", "-", str(path)],
+                       capture_output=True, text=True, timeout=300)
+    report = json.loads(r.stdout)
+    scored = report["cf:1.8"]
+    assert scored["high_count"] == 0 and scored["medium_count"] == 0 and scored["low_count"] == 0, scored

@@ -11,7 +11,17 @@ values exactly); a run lacking a value is NaN there.  No interpolation.
 
 Integer labels (``phase``, ``percolated``, ``status``) are int8 with CF ``flag_values``
 and ``flag_meanings``; missing or failed runs are NaN (floats) or the "unknown" flag, and
-``status`` says why.
+``status`` says why. Every observable has its 1-sigma error ``<name>_err``; each label
+its ``<label>_confidence`` and ``<label>_reason`` (a character string per run).
+
+Replicates: ``<name>_rmean`` and ``<name>_rmean_err`` reduce the ``replicate``
+dimension (:func:`fcsweep.analysis.stats.combine`: plain mean, propagated error scaled
+up by sqrt(chi2/dof) when the replicates scatter more than their errors allow) and
+``<name>_rchi2`` is that reduced chi-square, ~1 when the per-run errors are honest.
+``phase_point`` and ``percolated_point`` are the labels of these replicate means.
+
+CF-1.8: integer variables are int32 or int8 (CF-1.8 has no int64), strings are
+character arrays, bounds carry no fill value.
 """
 
 from __future__ import annotations
@@ -25,12 +35,15 @@ import numpy as np
 import xarray as xr
 
 from fcsweep import __version__
-from fcsweep.analysis.phase import PERCOLATION_FLAGS, PHASE_FLAGS, flag_attrs
-from fcsweep.analysis.pipeline import (ANALYSIS_FILE, CURVES, DATASET_FILE, _read_status, read_analysis)
+from fcsweep.analysis.phase import (MIN_CONFIDENCE, PERCOLATION_FLAGS, PHASE_FLAGS, classify_percolation,
+                                    classify_phase, flag_attrs)
+from fcsweep.analysis.stats import combine
+from fcsweep.analysis.pipeline import (ANALYSIS_ERROR_FILE, ANALYSIS_FILE, CURVES, DATASET_FILE, _read_status,
+                                      read_analysis)
 
 CORE_DIMS = ("eta", "v0", "N")
 STATUS_FLAGS = {0: "analysed", 1: "not_analysed", 2: "failed", 3: "running", 4: "pending",
-                5: "missing"}
+                5: "missing", 6: "analysis_failed"}
 _RUN_STATUS = {"failed": 2, "running": 3, "pending": 4}
 
 #: (long_name, units) of every coordinate and variable; lengths in R0, times in the
@@ -47,29 +60,50 @@ META = {
     "q_bin_bounds": ("shape index q, bin edges (CF bounds: units inherited from q_bin)", ""),
     "cluster_size": ("defect cluster size (cells)", "1"),
     "D_eff": ("effective diffusion D_s / D0, D0 = v0^2 / (2 Dr)", "1"),
-    "D_eff_err": ("standard error of D_eff (block estimate over cell subsets)", "1"),
+    "D_eff_err": ("1-sigma error of D_eff: larger of the time-block and cell-block errors", "1"),
+    "D_eff_err_time": ("error of D_eff from the scatter of time blocks", "1"),
+    "D_eff_err_cells": ("error of D_eff from the scatter of cell subsets within time blocks", "1"),
+    "D_eff_late": ("D_eff from the upper half of the MSD fit window (settling check)", "1"),
+    "D_eff_late_err": ("1-sigma error of D_eff_late", "1"),
+    "msd_diffusive": ("1 if the MSD slope has settled within the run, else 0", "1"),
+    "msd_long_enough": ("1 if a time block spans at least min_block_persistence / Dr, else 0", "1"),
+    "n_time_blocks": ("number of time blocks of the D_eff estimate", "1"),
+    "block_span": ("length of one time block of the D_eff estimate (time units)", "1"),
+    "t_equilibrated": ("start of the frames used for D_eff after equilibration detection", "1"),
     "D_s": ("long-time self-diffusion coefficient (R0^2 per time unit)", "1"),
-    "D_s_err": ("standard error of D_s", "1"),
+    "D_s_err": ("1-sigma error of D_s", "1"),
     "D0": ("free active diffusion v0^2 / (2 Dr) (R0^2 per time unit)", "1"),
     "fit_t_min": ("start of the MSD fit window (time units)", "1"),
     "fit_t_max": ("end of the MSD fit window (time units)", "1"),
     "q_mean": ("mean shape index <q> over cells and analysed frames", "1"),
     "q_std": ("standard deviation of the shape index", "1"),
+    "q_mean_err": ("1-sigma error of q_mean (autocorrelation of the frame series)", "1"),
     "q_frac_above": ("fraction of cells with q > 3.81", "1"),
+    "q_frac_above_err": ("1-sigma error of q_frac_above", "1"),
     "q_hist": ("probability density of the shape index", "1"),
     "rho_d": ("defect fraction: cells with != 6 Voronoi neighbours / N", "1"),
-    "rho_d_err": ("standard error of rho_d over analysed frames", "1"),
+    "rho_d_err": ("1-sigma error of rho_d (autocorrelation of the frame series)", "1"),
     "largest_cluster_fraction": ("largest defect cluster size / N, frame average", "1"),
-    "largest_cluster_fraction_err": ("standard error of largest_cluster_fraction", "1"),
+    "largest_cluster_fraction_err": ("1-sigma error of largest_cluster_fraction", "1"),
     "cluster_size_distribution": ("number of defect clusters of each size, pooled over the "
                                   "n_structure_frames analysed frames", "1"),
     "psi6": ("global hexatic order |Psi6| = |<psi6_i>|, frame average", "1"),
-    "psi6_err": ("standard error of psi6 over analysed frames", "1"),
+    "psi6_err": ("1-sigma error of psi6 (autocorrelation of the frame series)", "1"),
     "msd": ("drift-subtracted mean squared displacement (R0^2)", "1"),
     "G6": ("bond-orientational correlation Re <psi6_i psi6_j*>(r)", "1"),
     "Gr": ("translational correlation G_r(dx, 0) along the mean hexatic axis, ideal gas = 1", "1"),
-    "phase": ("phase label: solid if D_eff < 1e-3, else soft fluid if <q> > 3.81, else fluid", "1"),
-    "percolated": ("defect percolation label: rho_d > 1/2", "1"),
+    "phase": ("phase label: solid if D_eff < 1e-3, else soft fluid if <q> > 3.81, else fluid; "
+              "undetermined below the required confidence", "1"),
+    "phase_confidence": ("probability of the most probable phase given the errors", "1"),
+    "phase_reason": ("why the phase label is what it is", ""),
+    "percolated": ("defect percolation label: rho_d > 1/2; undetermined below the required confidence", "1"),
+    "percolated_confidence": ("probability of the most probable percolation label", "1"),
+    "percolated_reason": ("why the percolation label is what it is", ""),
+    "phase_point": ("phase label of the replicate means", "1"),
+    "phase_point_confidence": ("probability of phase_point given the replicate-mean errors", "1"),
+    "percolated_point": ("percolation label of the replicate mean of rho_d", "1"),
+    "percolated_point_confidence": ("probability of percolated_point", "1"),
+    "seed": ("random seed of the run (decimal string)", ""),
     "status": ("run and analysis status", "1"),
     "n_frames": ("frames after the transient used for the MSD", "1"),
     "n_structure_frames": ("frames used for Voronoi, defect and order statistics", "1"),
@@ -77,10 +111,16 @@ META = {
     "t_end": ("time of the last analysed frame", "1"),
     "run_id": ("run identifier (directory name under runs/)", ""),
 }
-SCALAR_VARS = ("D_eff", "D_eff_err", "D_s", "D_s_err", "D0", "fit_t_min", "fit_t_max",
-               "q_mean", "q_std", "q_frac_above", "rho_d", "rho_d_err",
+SCALAR_VARS = ("D_eff", "D_eff_err", "D_eff_err_time", "D_eff_err_cells", "D_eff_late", "D_eff_late_err",
+               "msd_diffusive", "msd_long_enough", "n_time_blocks", "block_span",
+               "D_s", "D_s_err", "D0", "fit_t_min", "fit_t_max",
+               "q_mean", "q_mean_err", "q_std", "q_frac_above", "q_frac_above_err", "rho_d", "rho_d_err",
                "largest_cluster_fraction", "largest_cluster_fraction_err", "psi6", "psi6_err",
-               "n_frames", "t_start", "t_end")
+               "n_frames", "t_start", "t_end", "t_equilibrated", "phase_confidence", "percolated_confidence")
+#: Observables reduced over replicates (``<name>_rmean``, ``_rmean_err``, ``_rchi2``).
+REPLICATE_VARS = ("D_eff", "q_mean", "q_frac_above", "rho_d", "largest_cluster_fraction", "psi6")
+#: Per-run strings, written as CF character arrays.
+STRING_VARS = ("run_id", "seed", "phase_reason", "percolated_reason")
 
 
 def _key(x):
@@ -95,7 +135,7 @@ def _key(x):
 def _coord_values(vals):
     vals = sorted({_key(v) for v in vals}, key=lambda v: (isinstance(v, str), v))
     if all(isinstance(v, (int, np.integer)) and not isinstance(v, bool) for v in vals):
-        return np.array(vals, dtype=np.int64)
+        return np.array(vals, dtype=np.int32)
     if all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in vals):
         return np.array(vals, dtype=np.float64)
     return np.array([str(v) for v in vals], dtype=object)
@@ -146,7 +186,7 @@ def build_dataset(config) -> xr.Dataset:
     for d in dims:
         if d == "replicate":
             coords[d] = np.arange(max(int(getattr(config, "replicates", 1)),
-                                      1 + max((r.replicate for r in runs), default=0)), dtype=np.int64)
+                                      1 + max((r.replicate for r in runs), default=0)), dtype=np.int32)
         else:
             coords[d] = _coord_values([r.params.get(d, np.nan) for r in runs])
     index = {d: {_key(v): i for i, v in enumerate(coords[d])} for d in dims}
@@ -155,12 +195,14 @@ def build_dataset(config) -> xr.Dataset:
     # read everything first (curve coordinates are unions over runs)
     entries = []
     status = np.full(shape, 5, dtype=np.int8)
-    run_ids = np.full(shape, "", dtype=object)
+    strings = {v: np.full(shape, "", dtype=object) for v in STRING_VARS}
+    commits = set()
     settings = None
     for spec in runs:
         loc = tuple(index[d][_key(spec.replicate if d == "replicate" else spec.params.get(d, np.nan))]
                     for d in dims)
-        run_ids[loc] = spec.run_id
+        strings["run_id"][loc] = spec.run_id
+        strings["seed"][loc] = str(spec.params.get("seed", ""))
         rd = Path(config.output) / "runs" / spec.run_id
         st = _read_status(rd)
         if st is None:
@@ -170,6 +212,9 @@ def build_dataset(config) -> xr.Dataset:
         if s != "done":
             status[loc] = _RUN_STATUS.get(s, 5)
             continue
+        if (rd / ANALYSIS_ERROR_FILE).exists():
+            status[loc] = 6
+            continue
         try:
             res = read_analysis(rd / ANALYSIS_FILE)
         except (OSError, KeyError, ValueError):
@@ -177,6 +222,14 @@ def build_dataset(config) -> xr.Dataset:
             continue
         status[loc] = 0
         settings = settings or res["settings"]
+        for v in ("phase_reason", "percolated_reason"):
+            strings[v][loc] = str(res["scalars"].get(v, ""))
+        try:
+            commit = json.loads(res["attrs"].get("parameters_json", "{}")).get("git_commit")
+        except ValueError:
+            commit = None
+        if commit:
+            commits.add(str(commit))
         entries.append((loc, res))
 
     curve_coords = {}
@@ -189,9 +242,9 @@ def build_dataset(config) -> xr.Dataset:
                     nz = np.flatnonzero(np.asarray(y) > 0)
                     x = x[: (nz[-1] + 1 if nz.size else 1)]
                 vals.update(_key(v) for v in np.asarray(x).tolist())
-        cc = np.array(sorted(vals), dtype=np.int64 if cname == "cluster_size" else np.float64)
+        cc = np.array(sorted(vals), dtype=np.int32 if cname == "cluster_size" else np.float64)
         if cc.size == 0:
-            cc = np.array([1], dtype=np.int64) if cname == "cluster_size" else np.array([np.nan])
+            cc = np.array([1], dtype=np.int32) if cname == "cluster_size" else np.array([np.nan])
         curve_coords[cname] = cc
     cindex = {c: {_key(v): i for i, v in enumerate(cc.tolist())} for c, cc in curve_coords.items()}
 
@@ -227,7 +280,7 @@ def build_dataset(config) -> xr.Dataset:
         e = np.linspace(lo, hi, int(nb) + 1)
         if len(e) - 1 == ds.sizes["q_bin"]:
             ds.coords["q_bin"].attrs["bounds"] = "q_bin_bounds"
-            ds["q_bin_bounds"] = (("q_bin", "nv"), np.stack([e[:-1], e[1:]], axis=1), _attrs("q_bin_bounds"))
+            ds["q_bin_bounds"] = (("q_bin", "nv"), np.stack([e[:-1], e[1:]], axis=1))  # CF: attributes inherited
     for v, arr in data.items():
         ds[v] = (dims, arr, _attrs(v))
     for n, c in CURVES.items():
@@ -235,7 +288,9 @@ def build_dataset(config) -> xr.Dataset:
     ds["phase"] = (dims, phase, {**_attrs("phase"), **flag_attrs(PHASE_FLAGS)})
     ds["percolated"] = (dims, perc, {**_attrs("percolated"), **flag_attrs(PERCOLATION_FLAGS)})
     ds["status"] = (dims, status, {**_attrs("status"), **flag_attrs(STATUS_FLAGS)})
-    ds["run_id"] = (dims, run_ids, _attrs("run_id"))
+    for v, arr in strings.items():
+        ds[v] = (dims, arr, _attrs(v))
+    _reduce_replicates(ds, settings)
     now = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
     cfg = config.to_dict() if hasattr(config, "to_dict") else {}
     ds.attrs = {
@@ -248,10 +303,52 @@ def build_dataset(config) -> xr.Dataset:
         "config": json.dumps(cfg, sort_keys=True, default=str),
         "analysis_settings": json.dumps(settings or {}, sort_keys=True),
         "curve_alignment": "curve coordinates are the union over runs; NaN where a run has no value (no interpolation)",
-        "n_runs": np.int64(len(runs)),
-        "n_analysed": np.int64(len(entries)),
+        "n_runs": np.int32(len(runs)),
+        "n_analysed": np.int32(len(entries)),
     }
+    if commits:
+        ds.attrs["git_commit"] = " ".join(sorted(commits))
     return ds
+
+
+def _reduce_replicates(ds: xr.Dataset, settings) -> None:
+    """Add ``<name>_rmean``, ``_rmean_err``, ``_rchi2`` and the point labels (in place)."""
+    conf = float((settings or {}).get("label_confidence", MIN_CONFIDENCE))
+    reduced = {}
+    for v in REPLICATE_VARS:
+        x = ds[v].transpose(..., "replicate").values
+        e = ds[f"{v}_err"].transpose(..., "replicate").values
+        out = np.full(x.shape[:-1] + (3,), np.nan)
+        for idx in np.ndindex(x.shape[:-1]):
+            c = combine(x[idx], e[idx])
+            out[idx] = (c.mean, c.err, c.chi2_dof)
+        reduced[v] = out
+        dims = [d for d in ds[v].dims if d != "replicate"]
+        ln = META[v][0]
+        ds[f"{v}_rmean"] = (dims, out[..., 0], {"long_name": f"replicate mean of {ln}", "units": "1"})
+        ds[f"{v}_rmean_err"] = (dims, out[..., 1], {"long_name": f"1-sigma error of {v}_rmean", "units": "1"})
+        ds[f"{v}_rchi2"] = (dims, out[..., 2], {
+            "long_name": f"reduced chi-square of the replicates of {v} about their mean (~1: honest errors)",
+            "units": "1"})
+    ok = ds["msd_diffusive"].fillna(0).astype(bool) & ds["msd_long_enough"].fillna(0).astype(bool)
+    ok = ok.transpose(..., "replicate").values.all(axis=-1)
+    dims = [d for d in ds["phase"].dims if d != "replicate"]
+    shape = ok.shape
+    phase = np.full(shape, -1, dtype=np.int8)
+    pconf = np.full(shape, np.nan)
+    perc = np.full(shape, -1, dtype=np.int8)
+    cconf = np.full(shape, np.nan)
+    for idx in np.ndindex(shape):
+        D, q, r = reduced["D_eff"][idx], reduced["q_mean"][idx], reduced["rho_d"][idx]
+        lab = classify_phase(D[0], D[1], q[0], q[1], diffusion_ok=bool(ok[idx]),
+                             diffusion_note="a replicate's D_eff is not trustworthy", min_confidence=conf)
+        phase[idx], pconf[idx] = lab.code, lab.confidence
+        lab = classify_percolation(r[0], r[1], min_confidence=conf)
+        perc[idx], cconf[idx] = lab.code, lab.confidence
+    ds["phase_point"] = (dims, phase, {**_attrs("phase_point"), **flag_attrs(PHASE_FLAGS)})
+    ds["phase_point_confidence"] = (dims, pconf, _attrs("phase_point_confidence"))
+    ds["percolated_point"] = (dims, perc, {**_attrs("percolated_point"), **flag_attrs(PERCOLATION_FLAGS)})
+    ds["percolated_point_confidence"] = (dims, cconf, _attrs("percolated_point_confidence"))
 
 
 def write_dataset(ds: xr.Dataset, path) -> Path:
@@ -262,10 +359,20 @@ def write_dataset(ds: xr.Dataset, path) -> Path:
     enc = {}
     for v in ds.variables:
         if ds[v].dtype.kind == "f":
-            enc[v] = {"_FillValue": np.nan if v not in ds.coords else None}
+            bounds = v.endswith("_bounds")
+            enc[v] = {"_FillValue": np.nan if v not in ds.coords and not bounds else None}
+        elif v in STRING_VARS:
+            enc[v] = {"dtype": "S1"}
     ds.to_netcdf(tmp, format="NETCDF4", engine="netcdf4", encoding=enc)
     os.replace(tmp, path)
     return path
+
+
+def unanalysed_runs(ds: xr.Dataset) -> list[tuple[str, str]]:
+    """``(run_id, status word)`` of finished runs without a usable analysis in ``ds``."""
+    st = ds["status"].values.ravel()
+    ids = ds["run_id"].values.ravel()
+    return [(str(r), STATUS_FLAGS[int(s)]) for r, s in zip(ids, st) if int(s) in (1, 6)]
 
 
 def aggregate_sweep(config) -> Path:

@@ -51,6 +51,8 @@ ANALYSIS_FILE = "analysis.h5"
 TRAJECTORY_FILE = "trajectory.h5"
 STATUS_FILE = "status.json"
 DATASET_FILE = "phase_diagram.nc"
+#: Written beside the trajectory when its analysis fails (the reason), removed on success.
+ANALYSIS_ERROR_FILE = "analysis_error.txt"
 
 DEFAULT_SETTINGS = {
     "transient": 0.2,
@@ -341,14 +343,27 @@ def _read_status(run_dir: Path) -> dict | None:
         return None
 
 
+def _record_failure(traj_path: Path, reason: str) -> None:
+    """A failed analysis leaves no stale analysis.h5 behind, and says why."""
+    rd = Path(traj_path).parent
+    (rd / ANALYSIS_FILE).unlink(missing_ok=True)
+    try:
+        (rd / ANALYSIS_ERROR_FILE).write_text(reason + "\n")
+    except OSError:
+        pass  # the run stays "not analysed", which aggregate reports too
+
+
 def _analyze_task(traj_path, transient, force, settings):
     try:
         res = analyze_run(traj_path, transient=transient, force=force, settings=settings)
-        return res["status"], res["message"]
     except (TrajectoryError, AnalysisError) as exc:
+        _record_failure(traj_path, str(exc))
         return "failed", str(exc)
     except Exception as exc:  # noqa: BLE001 - report, never crash the sweep
+        _record_failure(traj_path, f"{type(exc).__name__}: {exc}")
         return "failed", f"{type(exc).__name__}: {exc}"
+    (Path(traj_path).parent / ANALYSIS_ERROR_FILE).unlink(missing_ok=True)
+    return res["status"], res["message"]
 
 
 def _init_worker(threads: int) -> None:
