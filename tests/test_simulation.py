@@ -193,8 +193,7 @@ def test_bad_parameters_are_clear_errors(kw, msg):
 
 def test_isolated_active_cells_diffuse_with_D0():
     """Property 6: without contacts MSD -> 4 D0 t, D0 = v0^2/(2 D_r), so D_eff -> 1."""
-    from fcsweep.analysis.diffusion import effective_diffusion, fit_diffusion
-    from fcsweep.analysis.msd import msd_curve
+    from fcsweep.analysis.diffusion import effective_diffusion, estimate_diffusion
 
     v0, Dr, dt = 0.5, 1.0, 0.02
     s = Simulation.from_lattice(400, eta=0.1, v0=v0, Dr=Dr, seed=3, density=0.002, dt=dt)
@@ -203,9 +202,8 @@ def test_isolated_active_cells_diffuse_with_D0():
         frames.append(s.state.unwrapped().copy())
         s.advance(25)  # 0.5 time units per frame, T = 200 / D_r
     x = np.array(frames)
-    msd, blocks = msd_curve(x)
     t = np.arange(len(x)) * 25 * dt
-    fit = fit_diffusion(t, msd, msd_blocks=blocks)
+    fit = estimate_diffusion(t, x, Dr=Dr)
     D_eff, err = effective_diffusion(fit.D, fit.D_err, v0, Dr)
     assert abs(D_eff - 1.0) < max(4 * err, 0.05), (D_eff, err)
 
