@@ -60,8 +60,10 @@ _VERIFY_BYTES = 64 << 20
 def open_h5(path, mode: str = "r") -> h5py.File:
     """Open an HDF5 file without HDF5's own file locking (our run locks protect writers).
 
-    Files are created in the HDF5 1.10 format (checksummed metadata)."""
-    kwargs = {"libver": ("v110", "latest")} if mode in ("w", "x", "w-") else {}
+    Files are created in the HDF5 1.8 format (``libver="v108"``: object headers carry
+    checksums; unlike the 1.10 format, a writer killed with the file open leaves no
+    "file is already open for write" flag behind)."""
+    kwargs = {"libver": ("v108", "v108")} if mode in ("w", "x", "w-") else {}
     try:
         return h5py.File(path, mode, locking=False, **kwargs)
     except TypeError:  # pragma: no cover - very old h5py
@@ -148,7 +150,7 @@ def create_trajectory(
     Every dataset carries a Fletcher-32 checksum (:func:`verify_trajectory`).  All time
     series are sampled together, so ``step`` and ``time`` exist once, in ``position``,
     and every other series holds hard links to them (H5MD 1.1 requires it of ``image``).
-    The file uses the HDF5 1.10 format (``libver="v110"``), whose metadata carry
+    The file uses the HDF5 1.8 format (``libver="v108"``), whose object headers carry
     checksums too.
     """
     comp = None if compression == "none" else compression
@@ -327,7 +329,7 @@ def verify_trajectory(path, n_frames: int | None = None, *, complete: bool = Tru
     """Check a trajectory end to end; ``None`` if it is sound, else what is wrong.
 
     Every dataset is read in full, so the Fletcher-32 checksum of every chunk is
-    verified (and, in the HDF5 1.10 format, the checksums of the metadata); a truncated
+    verified (and the checksums of the object headers); a truncated
     or overwritten file fails to open or to read.  Also checked: all time series have
     the same number of frames (``n_frames`` if given), the steps increase strictly, and
     ``/parameters`` says ``complete = 1`` (if ``complete``).
