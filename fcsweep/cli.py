@@ -101,7 +101,7 @@ def simulate(config, output, workers, executor, scheduler, task_index, retry_fai
     try:
         note = check_space(cfg, specs)
     except OSError as exc:
-        click.echo(f"fcsweep: {exc}", err=True)
+        click.echo(f"fcsweep: {exc.strerror or exc}", err=True)
         sys.exit(2)
     if note:
         click.echo(f"fcsweep: warning: {note}", err=True)

@@ -33,11 +33,12 @@ STATUSES = (DONE, FAILED, RUNNING, PENDING, INTERRUPTED, CORRUPT)
 CAUSE_SIMULATION, CAUSE_IO, CAUSE_CONFLICT = "simulation", "io", "conflict"
 
 #: H5MD units module: the unit system and the unit strings (H5MD grammar: space-separated
-#: factors, each a symbol with an optional signed integer power).  Lengths are in units of
-#: the cell radius R0, times in units of tau = R0 / (mobility x force unit) (MODEL.md's
-#: reduced units).  Dimensionless datasets carry no ``unit`` attribute.
+#: factors, each a symbol of letters with an optional signed integer power, so "R0" would
+#: not parse).  Lengths are in units of the cell radius R0 (symbol "radius"), times in
+#: units of tau = R0 / (mobility x force unit) (symbol "tau"), the model's reduced units.
+#: Dimensionless datasets carry no ``unit`` attribute.
 UNIT_SYSTEM = "reduced"
-LENGTH_UNIT = "R0"
+LENGTH_UNIT = "radius"
 TIME_UNIT = "tau"
 
 #: Per-cell time series: name -> (dtype, trailing shape key, unit or None, description).
