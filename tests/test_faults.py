@@ -17,7 +17,6 @@ import sys
 import time
 
 import h5py
-import numpy as np
 import pytest
 from click.testing import CliRunner
 
@@ -31,6 +30,7 @@ from fcsweep.io.status import read_status
 from fcsweep.sweep import runner
 from fcsweep.sweep.executors import run_sweep, unfinished
 from fcsweep.sweep.runner import RunOutcome
+from test_pipeline_resume import assert_same_trajectory
 
 CONFIG = """
 output: {out}
@@ -40,21 +40,6 @@ grid:
 model: {{N: 16, eta: 0.1}}
 run: {{steps: 400, sample_every: 20, checkpoint_every: 100}}
 """
-
-
-def _datasets(path) -> dict[str, np.ndarray]:
-    out = {}
-    with h5py.File(path, "r") as f:
-        f.visititems(lambda n, o: out.__setitem__(n, o[()]) if isinstance(o, h5py.Dataset)
-                     and not n.startswith("parameters") else None)
-    return out
-
-
-def assert_same_trajectory(a, b):
-    da, db = _datasets(a), _datasets(b)
-    assert sorted(da) == sorted(db)
-    for k in da:
-        assert da[k].dtype == db[k].dtype and np.array_equal(da[k], db[k]), f"{k} differs"
 
 
 @pytest.fixture(scope="module")
