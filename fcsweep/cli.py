@@ -4,14 +4,16 @@ Every command takes an optional CONFIG (a sweep YAML file); without one it uses 
 built-in demo sweep (``fcsweep/data/smoke.yaml``, identical to ``configs/smoke.yaml``),
 which writes to ``./fcsweep-demo``.
 
-Exit codes: 0 success; 1 some run failed (the others completed); 2 invalid config or
-usage (nothing was written).
+Exit codes: 0 success; 1 some run failed or was left unfinished (the others completed);
+2 invalid config or usage, or not enough disk space (nothing was written); 128 + signal
+number when stopped by a signal (SIGINT 130, SIGTERM 143, SIGUSR1 138) after every
+running run wrote a checkpoint.
 """
 
 from __future__ import annotations
 
 import json
-import signal
+import shlex
 import sys
 from pathlib import Path
 
@@ -24,19 +26,6 @@ OUTPUT_OPT = click.option(
     "--output", "-o", type=click.Path(file_okay=False), default=None,
     help="Override the config's output directory.",
 )
-
-
-def _sigterm(signum, frame):
-    raise SystemExit(128 + signum)
-
-
-def _exit_on_sigterm():
-    """Turn SIGTERM (batch time limits, scancel) into SystemExit, so that runs release their
-    locks and keep their last checkpoint; returns the previous handler."""
-    try:
-        return signal.signal(signal.SIGTERM, _sigterm)
-    except ValueError:  # not the main thread
-        return None
 
 
 def _load(config: str | None, output: str | None = None, *, to_run: bool = False) -> SweepConfig:
@@ -74,7 +63,7 @@ def cli() -> None:
 @click.option("--retry-failed", is_flag=True, help="Run only the runs whose status is failed.")
 @click.option("--force", is_flag=True, help="Recompute runs even if done (ignores checkpoints).")
 @click.option("--lock-timeout", type=click.FloatRange(min=1), default=None,
-              help="Seconds without heartbeat after which another host's run lock is stale [900].")
+              help="Seconds without heartbeat after which a run lock is stale on any host [60].")
 @click.option("--log-every", type=click.FloatRange(min=0), default=30.0, show_default=True,
               help="Seconds between progress lines when stderr is not a terminal.")
 @click.option("--quiet", "-q", is_flag=True, help="No progress output; only the summary.")
@@ -107,11 +96,23 @@ def simulate(config, output, workers, executor, scheduler, task_index, retry_fai
             click.echo(f"fcsweep: --workers {workers} is more than the {processes} core(s) available; "
                        f"using {processes}", err=True)
             workers = processes
+    from fcsweep.sweep.space import check_space
+
+    try:
+        note = check_space(cfg, specs)
+    except OSError as exc:
+        click.echo(f"fcsweep: {exc.strerror or exc}", err=True)
+        sys.exit(2)
+    if note:
+        click.echo(f"fcsweep: warning: {note}", err=True)
     src = config or f"built-in demo ({builtin_demo_path().name})"
     click.echo(f"fcsweep: {len(specs)} run(s) of {src} -> {cfg.output} [{executor}"
                f"{', ' + str(workers) + ' workers' if executor == 'process' else ''}]", err=True)
+    from fcsweep.sweep import interrupt
+    from fcsweep.sweep.executors import unfinished
+
     progress = Progress(len(specs), log_every=log_every, enabled=not quiet)
-    previous = _exit_on_sigterm()
+    previous = interrupt.install()
     try:
         outcomes = run_sweep(cfg, specs, executor=executor, workers=workers, scheduler=scheduler,
                              progress=progress, force=force, retry_failed=retry_failed,
@@ -123,17 +124,31 @@ def simulate(config, output, workers, executor, scheduler, task_index, retry_fai
         sys.exit(2)
     finally:
         progress.close()
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
-    counts = {k: sum(o.outcome == k for o in outcomes) for k in ("done", "skipped", "locked", "failed")}
+        interrupt.restore(previous)
+    counts = {k: sum(o.outcome == k for o in outcomes) for k in ("done", "skipped", "locked", "failed",
+                                                                   "interrupted")}
     click.echo(
         f"fcsweep: {counts['done']} computed, {counts['skipped']} already done, "
-        f"{counts['locked']} held by other processes, {counts['failed']} failed", err=True)
+        f"{counts['locked']} held by other processes, {counts['failed']} failed"
+        + (f", {counts['interrupted']} interrupted" if counts["interrupted"] else ""), err=True)
     for o in outcomes:
         if o.outcome == "failed":
             click.echo(f"  failed: run {o.index} {o.run_id}: {o.message}", err=True)
+    sig = interrupt.requested()
+    if sig is not None:
+        stopped = [o for o in outcomes if o.outcome == "interrupted" and o.message != "not started"]
+        again = " ".join(shlex.quote(a) for a in sys.argv[1:]) or "simulate"
+        click.echo(f"fcsweep: stopped by {interrupt.reason()} ({len(stopped)} run(s) checkpointed); "
+                   f"resume with: fcsweep {again}", err=True)
+        sys.exit(interrupt.exit_code(sig))
+    lost = unfinished(cfg, outcomes, lock_timeout or DEFAULT_STALE_AFTER)
+    for o in lost:
+        click.echo(f"  unfinished: run {o.index} {o.run_id}: its lock holder stopped without finishing "
+                   f"({o.message}); the next launch computes it", err=True)
     if counts["failed"]:
-        click.echo("fcsweep: some runs failed; fix the cause and rerun with --retry-failed", err=True)
+        click.echo("fcsweep: some runs failed; fix the cause and rerun (I/O failures resume by themselves, "
+                   "others need --retry-failed)", err=True)
+    if counts["failed"] or lost:
         sys.exit(1)
 
 
@@ -141,17 +156,21 @@ def simulate(config, output, workers, executor, scheduler, task_index, retry_fai
 @CONFIG_ARG
 @OUTPUT_OPT
 @click.option("--json", "as_json", is_flag=True, help="Machine-readable output.")
-def status(config, output, as_json):
-    """Table of runs: done / running / interrupted / failed / pending, with progress."""
+@click.option("--verify", is_flag=True,
+              help="Read every checksum of finished trajectories; mark damaged ones corrupt (exit 1).")
+def status(config, output, as_json, verify):
+    """Table of runs: done / running / interrupted / failed / corrupt / pending, with progress."""
     from fcsweep.sweep.status import collect_status, format_status
 
     cfg = _load(config, output)
-    rows = collect_status(cfg)
+    rows = collect_status(cfg, verify=verify)
     if as_json:
         click.echo(json.dumps(rows, indent=1))
     else:
         click.echo(f"sweep {cfg.output}")
         click.echo(format_status(rows))
+    if verify and any(r["state"] == "corrupt" for r in rows):
+        sys.exit(1)
 
 
 @cli.command("list-runs")

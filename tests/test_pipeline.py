@@ -69,7 +69,7 @@ def test_h5md_layout_read_back_with_plain_h5py(done_sweep):
         assert "version" in f["h5md/creator"].attrs and "name" in f["h5md/author"].attrs
         box = f["particles/cells/box"]
         assert box.attrs["dimension"] == 2
-        assert [b.decode() for b in box.attrs["boundary"]] == ["periodic", "periodic"]
+        assert [str(b) for b in box.attrs["boundary"]] == ["periodic", "periodic"]  # VL strings (H5MD 1.1)
         edges = box["edges"][()]
         assert edges.shape == (2,) and edges.dtype == np.float64
         T, N = 11, 16
@@ -202,7 +202,7 @@ def test_failed_run_isolated_then_retry_failed(done_sweep, tmp_path, monkeypatch
     table = CliRunner().invoke(cli, ["status", str(path), "-o", str(cfg.output)])
     assert table.exit_code == 0
     assert f"{bad}  failed" in table.output and "reason: RuntimeError: injected failure" in table.output
-    assert table.output.strip().splitlines()[-1] == "4 runs: 3 done, 0 running, 0 interrupted, 1 failed, 0 pending"
+    assert table.output.strip().splitlines()[-1] == "4 runs: 3 done, 0 running, 0 interrupted, 1 failed, 0 corrupt, 0 pending"
 
     monkeypatch.delenv("FCSWEEP_FAIL_RUN_IDS")
     again = CliRunner().invoke(cli, args)  # a plain rerun does not retry failed runs
@@ -218,7 +218,7 @@ def test_status_shows_pending_interrupted_and_progress(done_sweep, tmp_path):
     path, _ = done_sweep
     out = tmp_path / "st"
     r = CliRunner().invoke(cli, ["status", str(path), "-o", str(out)])
-    assert r.exit_code == 0 and "4 runs: 0 done, 0 running, 0 interrupted, 0 failed, 4 pending" in r.output
+    assert r.exit_code == 0 and "4 runs: 0 done, 0 running, 0 interrupted, 0 failed, 0 corrupt, 4 pending" in r.output
     cfg = load_config(path).with_output(out)
     spec = cfg.runs()[0]
     d = cfg.run_dir(spec.run_id)

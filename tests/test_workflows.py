@@ -1,10 +1,10 @@
-"""workflows/: the SLURM array script (with a fake sbatch), the cron example (run as
-cron would, with flock) and the dask-jobqueue launcher (job script and a local run)."""
+"""workflows/: the SLURM array script (with a fake sbatch, and a SIGTERM as at a time limit),
+the cron example (run as cron would, with flock) and the dask-jobqueue launcher run as a
+script, as users run it (job script and a local run)."""
 
 from __future__ import annotations
 
 import fcntl
-import importlib.util
 import os
 import shlex
 import subprocess
@@ -118,31 +118,69 @@ def test_cron_example_line_runs_and_respects_flock(tmp_path, env):
         r = subprocess.run(["bash", "-c", command], env=env, capture_output=True, text=True, timeout=60)
     assert r.returncode == 0
     log2 = (sweeps / "phase.cron.log").read_text()[len(log):]
-    assert "cron tick" in log2 and "run(s) of" not in log2
+    assert "cron tick skipped" in log2 and "run(s) of" not in log2
 
 
-def _launcher():
-    spec = importlib.util.spec_from_file_location("dask_jobqueue_launcher", WF / "dask_jobqueue.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+def _launch(*args, env=None, timeout=300):
+    """The launcher as users run it: ``python workflows/jobqueue_launch.py ...`` (the
+    script's directory first on sys.path, so a file shadowing dask_jobqueue would bite)."""
+    return subprocess.run([sys.executable, str(WF / "jobqueue_launch.py"), *map(str, args)],
+                          capture_output=True, text=True, timeout=timeout, env=env)
 
 
-def test_dask_jobqueue_launcher_renders_slurm_job_script(tmp_path, capsys):
+def test_no_workflow_file_shadows_a_package():
+    assert not (WF / "dask_jobqueue.py").exists()
+    assert not [p for p in WF.glob("*.py") if p.stem in ("dask", "distributed", "dask_jobqueue", "fcsweep")]
+
+
+def test_jobqueue_launcher_renders_slurm_job_script(tmp_path):
     pytest.importorskip("dask_jobqueue")
-    rc = _launcher().main([str(_config(tmp_path)), "--system", "slurm", "--dry-run", "--queue", "short",
-                           "--account", "proj1", "--walltime", "02:00:00", "--memory", "3GB"])
-    assert rc == 0
-    script = capsys.readouterr().out
+    r = _launch(_config(tmp_path), "--system", "slurm", "--dry-run", "--queue", "short", "--account", "proj1",
+                "--walltime", "02:00:00", "--memory", "3GB", "--interface", "lo")
+    assert r.returncode == 0, r.stderr
+    script = r.stdout
     for needle in ("#SBATCH -J fcsweep", "#SBATCH -p short", "#SBATCH -A proj1", "#SBATCH -t 02:00:00",
-                   "NUMBA_NUM_THREADS=1", "distributed.cli.dask_worker"):
+                   "NUMBA_NUM_THREADS=1", "distributed.cli.dask_worker", "--interface lo"):
         assert needle in script, needle
+    assert "has no attribute" not in r.stderr
     assert not (tmp_path / "out").exists()
 
 
-def test_dask_jobqueue_launcher_local_run(tmp_path):
+def test_jobqueue_launcher_local_run(tmp_path):
     cfg_path = _config(tmp_path)
-    rc = _launcher().main([str(cfg_path), "--local", "--jobs", "1"])
-    assert rc == 0
+    r = _launch(cfg_path, "--local", "--jobs", "1")
+    assert r.returncode == 0, r.stderr
     cfg = load_config(cfg_path)
     assert all(read_status(cfg.run_dir(s.run_id))["status"] == "done" for s in cfg.runs())
+
+
+def test_slurm_script_declares_requeue_append_and_signal():
+    text = (WF / "slurm_array.sh").read_text()
+    for directive in ("#SBATCH --requeue", "#SBATCH --open-mode=append", "#SBATCH --signal=B:TERM@60"):
+        assert directive in text, directive
+
+
+def test_slurm_script_logs_and_forwards_sigterm(tmp_path, env):
+    """SIGTERM to the batch shell (what --signal=B:TERM sends): a log line, fcsweep
+    checkpoints, exit 143, and the next attempt resumes."""
+    import signal
+    import time
+
+    cfg_path = _config(tmp_path)
+    cfg = load_config(cfg_path)
+    spec = cfg.runs()[0]
+    e = {**env, "SLURM_ARRAY_TASK_ID": "0", "FCSWEEP_TEST_SLOW": "0.3"}
+    p = subprocess.Popen(["bash", str(WF / "slurm_array.sh"), str(cfg_path)], env=e, stdout=subprocess.PIPE,
+                         stderr=subprocess.STDOUT, text=True)
+    t0 = time.time()
+    while (read_status(cfg.run_dir(spec.run_id)) or {}).get("status") != "running" and time.time() - t0 < 120:
+        time.sleep(0.05)
+    p.send_signal(signal.SIGTERM)
+    out, _ = p.communicate(timeout=60)
+    assert p.returncode == 143, out
+    assert "received SIGTERM" in out and "exited with status 143" in out
+    st = read_status(cfg.run_dir(spec.run_id))
+    assert st["status"] == "interrupted" and st["signal"] == "SIGTERM"
+    r = subprocess.run(["bash", str(WF / "slurm_array.sh"), str(cfg_path)], env={**env, "SLURM_ARRAY_TASK_ID": "0"},
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0 and read_status(cfg.run_dir(spec.run_id))["status"] == "done"

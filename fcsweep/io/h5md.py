@@ -29,7 +29,16 @@ from typing import Any, Callable, Mapping, Sequence
 import h5py
 import numpy as np
 
-from fcsweep.io.schema import FIELD_LAYOUT, H5MD_VERSION, OBSERVABLES, PARAMETERS, PARTICLES
+from fcsweep.io.schema import (
+    FIELD_LAYOUT,
+    H5MD_VERSION,
+    LENGTH_UNIT,
+    OBSERVABLES,
+    PARAMETERS,
+    PARTICLES,
+    TIME_UNIT,
+    UNIT_SYSTEM,
+)
 
 __all__ = [
     "create_trajectory",
@@ -40,13 +49,23 @@ __all__ = [
     "read_parameters",
     "open_h5",
     "fsync_path",
+    "verify_trajectory",
+    "repack",
 ]
+
+#: Frames read at a time while verifying checksums (bounded memory for big files).
+_VERIFY_BYTES = 64 << 20
 
 
 def open_h5(path, mode: str = "r") -> h5py.File:
-    """Open an HDF5 file without HDF5's own file locking (our run locks protect writers)."""
+    """Open an HDF5 file without HDF5's own file locking (our run locks protect writers).
+
+    Files are created in the HDF5 1.8 format (``libver="v108"``: object headers carry
+    checksums; unlike the 1.10 format, a writer killed with the file open leaves no
+    "file is already open for write" flag behind)."""
+    kwargs = {"libver": ("v108", "v108")} if mode in ("w", "x", "w-") else {}
     try:
-        return h5py.File(path, mode, locking=False)
+        return h5py.File(path, mode, locking=False, **kwargs)
     except TypeError:  # pragma: no cover - very old h5py
         return h5py.File(path, mode)
 
@@ -81,6 +100,19 @@ def _attr_value(v: Any) -> Any:
     return json.dumps(v)
 
 
+def _vlen_str(attrs, name: str, value) -> None:
+    """Write a scalar or 1-d variable-length string attribute, ASCII where possible
+    (H5MD 1.1 asks for variable-length strings; the units module for ASCII ones)."""
+    values = [value] if isinstance(value, str) else list(value)
+    ascii_ok = all(v.isascii() for v in values)
+    dt = h5py.string_dtype("ascii" if ascii_ok else "utf-8")
+    data = [v.encode("ascii" if ascii_ok else "utf-8") for v in values]
+    if isinstance(value, str):
+        attrs.create(name, data[0], dtype=dt)
+    else:
+        attrs.create(name, np.array(data, dtype=object), shape=(len(data),), dtype=dt)
+
+
 def create_trajectory(
     path,
     *,
@@ -93,6 +125,7 @@ def create_trajectory(
     compression: str = "gzip",
     compression_level: int = 4,
     creator_version: str = "unknown",
+    frames_per_chunk: int | None = None,
 ) -> None:
     """Create an empty H5MD trajectory (all time series with 0 frames) and close it.
 
@@ -107,60 +140,77 @@ def create_trajectory(
     parameters : mapping
         Written as attributes of ``/parameters`` (non-scalars as JSON strings).
     dt : float
-        Time step; stored as attribute of every ``time`` dataset.
+        Time step; stored as attribute of the ``time`` dataset.
+    frames_per_chunk : int, optional
+        Frames per HDF5 chunk of the ``value`` datasets (the frames one checkpoint adds,
+        so that appends write whole chunks); capped at 4 MiB per chunk.
+
+    Notes
+    -----
+    Every dataset carries a Fletcher-32 checksum (:func:`verify_trajectory`).  All time
+    series are sampled together, so ``step`` and ``time`` exist once, in ``position``,
+    and every other series holds hard links to them (H5MD 1.1 requires it of ``image``).
+    The file uses the HDF5 1.8 format (``libver="v108"``), whose object headers carry
+    checksums too.
     """
     comp = None if compression == "none" else compression
-    copts = {}
+    copts: dict[str, Any] = {"fletcher32": True}
     if comp == "gzip":
-        copts = {"compression": "gzip", "compression_opts": int(compression_level), "shuffle": True}
+        copts.update(compression="gzip", compression_opts=int(compression_level), shuffle=True)
     elif comp == "lzf":
-        copts = {"compression": "lzf", "shuffle": True}
+        copts.update(compression="lzf", shuffle=True)
     with open_h5(path, "w") as f:
         h5md = f.create_group("h5md")
         h5md.attrs["version"] = np.array(H5MD_VERSION, dtype=np.int32)
         creator = h5md.create_group("creator")
-        creator.attrs["name"] = "fcsweep"
-        creator.attrs["version"] = str(creator_version)
+        _vlen_str(creator.attrs, "name", "fcsweep")
+        _vlen_str(creator.attrs, "version", str(creator_version))
         author = h5md.create_group("author")
         try:
-            author.attrs["name"] = getpass.getuser()
+            user = getpass.getuser()
         except Exception:  # noqa: BLE001 - no user name in some batch environments
-            author.attrs["name"] = "fcsweep"
+            user = "fcsweep"
+        _vlen_str(author.attrs, "name", user)
         units = h5md.create_group("modules").create_group("units")
         units.attrs["version"] = np.array([1, 0], dtype=np.int32)
-        units.attrs["system"] = "reduced: length R0, time 1/mobility (see results_schema.md)"
+        _vlen_str(units.attrs, "system", UNIT_SYSTEM)
 
         cells = f.require_group(PARTICLES)
         boxg = cells.create_group("box")
         boxg.attrs["dimension"] = np.int32(2)
-        boxg.attrs["boundary"] = np.array([b"periodic", b"periodic"], dtype="S8")
-        edges = boxg.create_dataset("edges", data=np.asarray(box, dtype=np.float64))
-        edges.attrs["unit"] = "R0"
+        _vlen_str(boxg.attrs, "boundary", ["periodic", "periodic"])
+        edges = boxg.create_dataset("edges", data=np.asarray(box, dtype=np.float64), fletcher32=True)
+        _vlen_str(edges.attrs, "unit", LENGTH_UNIT)
 
-        def series(group: h5py.Group, value_shape, dtype, unit: str, description: str):
+        clock: dict[str, h5py.Dataset] = {}
+
+        def series(group: h5py.Group, value_shape, dtype, unit: str | None, description: str):
             frame_bytes = int(np.prod(value_shape, dtype=np.int64)) * np.dtype(dtype).itemsize
-            chunk_t = int(max(1, min(256, (1 << 18) // max(frame_bytes, 1))))
-            step = group.create_dataset(
-                "step", shape=(0,), maxshape=(None,), dtype=np.int64, chunks=(256,)
-            )
-            time = group.create_dataset(
-                "time", shape=(0,), maxshape=(None,), dtype=np.float64, chunks=(256,)
-            )
-            time.attrs["unit"] = "1/mobility"
-            time.attrs["dt"] = float(dt)
-            step.attrs["description"] = "integration step of each frame"
+            cap = max(1, (4 << 20) // max(frame_bytes, 1))
+            chunk_t = int(min(frames_per_chunk, cap)) if frames_per_chunk else int(max(1, min(256, cap // 16)))
+            if not clock:
+                clock["step"] = group.create_dataset(
+                    "step", shape=(0,), maxshape=(None,), dtype=np.int64, chunks=(1024,), fletcher32=True)
+                clock["time"] = group.create_dataset(
+                    "time", shape=(0,), maxshape=(None,), dtype=np.float64, chunks=(1024,), fletcher32=True)
+                _vlen_str(clock["time"].attrs, "unit", TIME_UNIT)
+                clock["time"].attrs["dt"] = float(dt)
+            else:  # H5MD: series sampled together hard-link step and time
+                group["step"] = clock["step"]
+                group["time"] = clock["time"]
             value = group.create_dataset(
                 "value",
                 shape=(0, *value_shape),
                 maxshape=(None, *value_shape),
                 dtype=dtype,
-                chunks=(chunk_t, *value_shape),
+                chunks=(max(1, chunk_t), *value_shape),
                 **copts,
             )
-            value.attrs["unit"] = unit
-            value.attrs["description"] = description
+            if unit is not None:
+                _vlen_str(value.attrs, "unit", unit)
+            _vlen_str(value.attrs, "description", description)
 
-        for name in fields:
+        for name in sorted(fields, key=lambda n: n != "position"):  # position first: owns step/time
             dtype, _, unit, desc = FIELD_LAYOUT[name]
             series(cells.create_group(name), _trailing(name, n_cells, modes_width), dtype, unit, desc)
         obs = f.require_group(OBSERVABLES)
@@ -168,13 +218,25 @@ def create_trajectory(
             obs.create_group("projections"),
             (),
             "int64",
-            "1",
+            None,
             "cumulative number of shape projections back into the admissible set",
         )
         par = f.require_group(PARAMETERS)
         for k, v in parameters.items():
             par.attrs[k] = _attr_value(v)
     fsync_path(path)
+
+
+def _datasets(f: h5py.File) -> list[h5py.Dataset]:
+    """Every time-series dataset once (hard links counted once)."""
+    seen, out = set(), []
+    groups = [g for name, g in f[PARTICLES].items() if name != "box"] + [f[OBSERVABLES]["projections"]]
+    for g in groups:
+        for ds in g.values():
+            if ds.id not in seen:  # ObjectIDs of one object compare equal
+                seen.add(ds.id)
+                out.append(ds)
+    return out
 
 
 def _series(f: h5py.File) -> dict[str, h5py.Group]:
@@ -215,6 +277,7 @@ def append_frames(
     """
     with open_h5(path, "r+") as f:
         groups = _series(f)
+        datasets = _datasets(f)
         n0 = groups["position"]["step"].shape[0]
         if expected_start is not None:
             if n0 < expected_start:
@@ -223,18 +286,16 @@ def append_frames(
         k = len(frames)
         if k == 0:
             return n0
-        for g in groups.values():
-            for ds in g.values():
-                ds.resize(n0 + k, axis=0)
+        for ds in datasets:
+            ds.resize(n0 + k, axis=0)
         if after_resize is not None:
             after_resize()
-        steps = np.array([fr["step"] for fr in frames], dtype=np.int64)
-        times = np.array([fr["time"] for fr in frames], dtype=np.float64)
         for name, g in groups.items():
-            g["step"][n0:] = steps
-            g["time"][n0:] = times
             data = np.stack([np.asarray(fr[name]) for fr in frames]).astype(g["value"].dtype, copy=False)
             g["value"][n0:] = data
+        # step and time last: a frame whose step is set has its data written
+        groups["position"]["time"][n0:] = np.array([fr["time"] for fr in frames], dtype=np.float64)
+        groups["position"]["step"][n0:] = np.array([fr["step"] for fr in frames], dtype=np.int64)
         n = n0 + k
     fsync_path(path)
     return n
@@ -243,10 +304,9 @@ def append_frames(
 def truncate_frames(path, n: int) -> None:
     """Shrink every time series to its first ``n`` frames (frames after a checkpoint)."""
     with open_h5(path, "r+") as f:
-        for g in _series(f).values():
-            for ds in g.values():
-                if ds.shape[0] != n:
-                    ds.resize(n, axis=0)
+        for ds in _datasets(f):
+            if ds.shape[0] != n:
+                ds.resize(n, axis=0)
     fsync_path(path)
 
 
@@ -263,3 +323,91 @@ def read_parameters(path) -> dict[str, Any]:
     """Attributes of ``/parameters`` as a plain dict (JSON strings left as strings)."""
     with open_h5(path, "r") as f:
         return {k: (v.item() if isinstance(v, np.generic) else v) for k, v in f[PARAMETERS].attrs.items()}
+
+
+def verify_trajectory(path, n_frames: int | None = None, *, complete: bool = True) -> str | None:
+    """Check a trajectory end to end; ``None`` if it is sound, else what is wrong.
+
+    Every dataset is read in full, so the Fletcher-32 checksum of every chunk is
+    verified (and the checksums of the object headers); a truncated
+    or overwritten file fails to open or to read.  Also checked: all time series have
+    the same number of frames (``n_frames`` if given), the steps increase strictly, and
+    ``/parameters`` says ``complete = 1`` (if ``complete``).
+
+    Parameters
+    ----------
+    path : path-like
+    n_frames : int, optional
+        Expected number of frames.
+    complete : bool
+        Require the ``complete`` flag of a finished trajectory.
+    """
+    try:
+        with open_h5(path, "r") as f:
+            datasets: list[h5py.Dataset] = []
+            f.visititems(lambda _n, obj: datasets.append(obj) if isinstance(obj, h5py.Dataset) else None)
+            for ds in datasets:
+                if ds.shape == () or ds.size == 0:
+                    ds[()]
+                    continue
+                row = max(1, int(np.prod(ds.shape[1:], dtype=np.int64)) * ds.dtype.itemsize)
+                step = max(1, _VERIFY_BYTES // row)
+                for i in range(0, ds.shape[0], step):
+                    ds[i:i + step]
+            dict(f[PARAMETERS].attrs)
+            steps = f[PARTICLES]["position"]["step"][()]
+            n = int(steps.shape[0])
+            if n_frames is not None and n != n_frames:
+                return f"{n} frames, expected {n_frames}"
+            short = [ds.name for ds in _datasets(f) if ds.shape[0] != n]
+            if short:
+                return f"time series of unequal length: {', '.join(short)} differ from position/step ({n})"
+            if n > 1 and not np.all(np.diff(steps) > 0):
+                return "steps do not increase"
+            if complete and not int(f[PARAMETERS].attrs.get("complete", 0)):
+                return "not marked complete"
+    except Exception as exc:  # noqa: BLE001 - any failure to read is damage
+        return f"unreadable ({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''})"
+    return None
+
+
+def repack(src, dst) -> None:
+    """Copy a trajectory into a fresh file, dropping the space that appends left unused.
+
+    Datasets are copied chunk for chunk (filters and chunking kept); hard links stay
+    hard links; attributes are copied.  ``dst`` is fsynced.
+    """
+    copied: dict[Any, str] = {}
+    with open_h5(src, "r") as fin, open_h5(dst, "w") as fout:
+        _copy_attrs(fin, fout)
+
+        def walk(gin: h5py.Group, gout: h5py.Group) -> None:
+            for name, obj in gin.items():
+                if isinstance(obj, h5py.Group):
+                    sub = gout.create_group(name)
+                    _copy_attrs(obj, sub)
+                    walk(obj, sub)
+                elif obj.id in copied:
+                    gout[name] = gout.file[copied[obj.id]]
+                else:
+                    fin.copy(obj, gout, name=name)
+                    copied[obj.id] = gout[name].name
+
+        walk(fin, fout)
+    fsync_path(dst)
+
+
+def _copy_attrs(src: h5py.HLObject, dst: h5py.HLObject) -> None:
+    """Copy attributes with their exact HDF5 datatypes (e.g. variable-length ASCII)."""
+    for name in src.attrs:
+        tid = src.attrs.get_id(name).get_type()
+        dtype = src.attrs.get_id(name).dtype
+        if tid.get_class() == h5py.h5t.STRING:
+            cset = "ascii" if tid.get_cset() == h5py.h5t.CSET_ASCII else "utf-8"
+            dtype = h5py.string_dtype(cset, None if tid.is_variable_str() else tid.get_size())
+        value = src.attrs[name]
+        if isinstance(value, str):
+            value = value.encode("utf-8")
+        elif isinstance(value, np.ndarray) and value.dtype == object:
+            value = np.array([v.encode("utf-8") if isinstance(v, str) else v for v in value], dtype=object)
+        dst.attrs.create(name, value, dtype=dtype)

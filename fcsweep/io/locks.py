@@ -2,14 +2,18 @@
 
 A lock is a small JSON file (``run.lock``) created with ``O_CREAT | O_EXCL`` (atomic on
 POSIX file systems and on NFSv3+), holding ``pid``, ``host``, ``started`` and a random
-``token``.  The holder refreshes the file's mtime (:meth:`RunLock.heartbeat`) while it works.
+``token``.  The holder refreshes the file's mtime every :data:`HEARTBEAT` seconds from a
+daemon thread (:meth:`RunLock.start_heartbeat`) while it works.
 
 A lock is *stale*, and may be taken over, when
 
 * its host is this host and its pid no longer exists (a killed process), or
-* its heartbeat (mtime) is older than ``stale_after`` seconds (default 900, environment
-  variable ``FCSWEEP_LOCK_STALE_SECONDS``): the only test available across hosts, since a
-  pid on another node cannot be checked; also covers a reused pid on this host.
+* its heartbeat (mtime) is older than ``stale_after`` seconds (default four heartbeat
+  periods, 60 s; environment variable ``FCSWEEP_LOCK_STALE_SECONDS``): the test that works
+  across hosts, since a pid on another node cannot be checked; it also covers a reused pid
+  on this host.  The age is measured against the *file system's* clock (the mtime of a
+  probe file written beside the lock), so clock skew between nodes and the file server
+  does not make live locks look stale or dead ones look live.
 
 Taking over is serialised by a second short-lived ``O_EXCL`` file (``run.lock.break``) so
 that two processes that both find the same stale lock cannot both win, and a process never
@@ -27,10 +31,50 @@ import time
 from pathlib import Path
 from typing import Any
 
-__all__ = ["RunLock", "LockHeld", "LockLost", "lock_info", "lock_is_stale", "pid_alive", "DEFAULT_STALE_AFTER"]
+__all__ = [
+    "RunLock", "LockHeld", "LockLost", "lock_info", "lock_is_stale", "pid_alive", "fs_now",
+    "DEFAULT_STALE_AFTER", "HEARTBEAT",
+]
 
-DEFAULT_STALE_AFTER = float(os.environ.get("FCSWEEP_LOCK_STALE_SECONDS", 900))
+#: Seconds between heartbeats of a held lock.
+HEARTBEAT = 15.0
+DEFAULT_STALE_AFTER = float(os.environ.get("FCSWEEP_LOCK_STALE_SECONDS", 4 * HEARTBEAT))
 _BREAK_STALE_AFTER = 60.0
+_FS_CLOCK: dict[int, tuple[float, float]] = {}  # st_dev -> (fs time - local time, local time measured)
+_FS_CLOCK_TTL = 30.0
+
+
+def fs_now(directory) -> float:
+    """Current time on the clock of the file system holding ``directory``.
+
+    The offset to the local clock is measured by creating a probe file there and reading
+    its mtime (set by the file server on network file systems), cached per device for
+    30 s.  Falls back to the local clock where the directory cannot be written.
+    """
+    directory = Path(directory)
+    now = time.time()
+    try:
+        dev = directory.stat().st_dev
+    except OSError:
+        return now
+    cached = _FS_CLOCK.get(dev)
+    if cached is not None and now - cached[1] < _FS_CLOCK_TTL:
+        return now + cached[0]
+    probe = directory / f".fcsweep-clock.{socket.gethostname()}.{os.getpid()}.{secrets.token_hex(4)}"
+    try:
+        fd = os.open(probe, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+        try:
+            mtime = os.fstat(fd).st_mtime
+        finally:
+            os.close(fd)
+            os.unlink(probe)
+    except OSError:
+        return now
+    offset = mtime - now
+    # a local file system: same clock (sub-second differences are timestamp granularity)
+    offset = 0.0 if abs(offset) < 1.0 else offset
+    _FS_CLOCK[dev] = (offset, now)
+    return now + offset
 
 
 class LockHeld(RuntimeError):
@@ -72,10 +116,10 @@ def lock_info(path) -> dict[str, Any] | None:
         except OSError:
             return None
         # Present but empty/garbled: the creator died between create and write.
-        return {"pid": -1, "host": "?", "token": None, "age": time.time() - st.st_mtime, "garbled": True}
+        return {"pid": -1, "host": "?", "token": None, "age": fs_now(path.parent) - st.st_mtime, "garbled": True}
     if not isinstance(info, dict):
         info = {}
-    info["age"] = time.time() - st.st_mtime
+    info["age"] = fs_now(path.parent) - st.st_mtime
     return info
 
 
@@ -172,7 +216,7 @@ class RunLock:
         self.held_by = info
         return False
 
-    def heartbeat(self, min_interval: float = 10.0) -> None:
+    def heartbeat(self, min_interval: float = HEARTBEAT) -> None:
         """Refresh the lock's mtime (at most every ``min_interval`` seconds)."""
         now = time.time()
         if self.token is None or now - self._last_beat < min_interval:
@@ -183,14 +227,18 @@ class RunLock:
             pass
         self._last_beat = now
 
-    def start_heartbeat(self, interval: float = 30.0) -> None:
+    def start_heartbeat(self, interval: float | None = None) -> None:
         """Refresh the mtime every ``interval`` s from a daemon thread (until release).
 
-        The engine's kernels return to Python every few hundred steps, so the thread runs
-        even while a long ``advance`` call is in progress.
+        Default: :data:`HEARTBEAT`, or a quarter of ``stale_after`` if that is shorter, so
+        that a live holder never looks stale.  The engine's kernels return to Python every
+        few hundred steps, so the thread runs even while a long ``advance`` call is in
+        progress.
         """
         if self.token is None or self._stop is not None:
             return
+        if interval is None:
+            interval = min(HEARTBEAT, self.stale_after / 4.0)
         self._stop = threading.Event()
         stop = self._stop
 

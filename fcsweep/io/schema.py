@@ -18,16 +18,35 @@ PARAMETERS = "/parameters"
 #: H5MD version written.
 H5MD_VERSION = (1, 1)
 
-#: Status values of a run.
+#: Status values of a run (``status.json`` key ``status``).  Life cycle::
+#:
+#:     pending -> running -> done
+#:                  |-> interrupted (signal; resumes from the checkpoint at the signal)
+#:                  |-> failed      (``cause``: "simulation" is final until --retry-failed;
+#:                  |                "io" resumes by itself once the disk/quota is fixed)
+#:     done -> corrupt (trajectory fails its checksums; the next simulate recomputes it)
 DONE, FAILED, RUNNING, PENDING = "done", "failed", "running", "pending"
-STATUSES = (DONE, FAILED, RUNNING, PENDING)
+INTERRUPTED, CORRUPT = "interrupted", "corrupt"
+STATUSES = (DONE, FAILED, RUNNING, PENDING, INTERRUPTED, CORRUPT)
 
-#: Per-cell time series: name -> (dtype, trailing shape key, unit, description).
+#: ``status.json`` key ``cause`` of a failed run.
+CAUSE_SIMULATION, CAUSE_IO, CAUSE_CONFLICT = "simulation", "io", "conflict"
+
+#: H5MD units module: the unit system and the unit strings (H5MD grammar: space-separated
+#: factors, each a symbol of letters with an optional signed integer power, so "R0" would
+#: not parse).  Lengths are in units of the cell radius R0 (symbol "radius"), times in
+#: units of tau = R0 / (mobility x force unit) (symbol "tau"), the model's reduced units.
+#: Dimensionless datasets carry no ``unit`` attribute.
+UNIT_SYSTEM = "reduced"
+LENGTH_UNIT = "radius"
+TIME_UNIT = "tau"
+
+#: Per-cell time series: name -> (dtype, trailing shape key, unit or None, description).
 #: Trailing shape: "2" -> (N, 2); "" -> (N,); "modes" -> (N, M-1).
 FIELD_LAYOUT = {
-    "position": ("float64", "2", "R0", "cell polar origin r_i, wrapped into [0,Lx) x [0,Ly)"),
-    "image": ("int32", "2", "1", "periodic box crossings; unwrapped = position + image * edges"),
+    "position": ("float64", "2", LENGTH_UNIT, "cell polar origin r_i, wrapped into [0,Lx) x [0,Ly)"),
+    "image": ("int32", "2", None, "periodic box crossings; unwrapped = position + image * edges"),
     "theta": ("float64", "", "rad", "polarity angle theta_i, unwrapped (not reduced mod 2 pi)"),
-    "shape_a": ("float64", "modes", "1", "Fourier amplitudes a_n, n = 2..M (column k is n = k+2)"),
-    "shape_b": ("float64", "modes", "1", "Fourier amplitudes b_n, n = 2..M (column k is n = k+2)"),
+    "shape_a": ("float64", "modes", None, "Fourier amplitudes a_n, n = 2..M (column k is n = k+2)"),
+    "shape_b": ("float64", "modes", None, "Fourier amplitudes b_n, n = 2..M (column k is n = k+2)"),
 }

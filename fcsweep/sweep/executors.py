@@ -6,6 +6,11 @@ the ``spawn`` context (safe with numba and threads); there are at most as many a
 and each gets ``cores // processes`` numba threads, so processes x threads never exceeds
 the cores (:func:`worker_layout`).  Dask runs use one numba thread each.
 Dask workers must see the same file system path as the submitting process.
+
+Stopping (SIGTERM, SIGINT, SIGUSR1 -- :mod:`fcsweep.sweep.interrupt`): no new run is
+started; every running run writes a checkpoint at its current step and is reported
+``interrupted``.  Pool workers get the signal forwarded (and install the same flag
+handler); Dask runs poll a distributed ``Event`` set by the submitting process.
 """
 
 from __future__ import annotations
@@ -13,7 +18,6 @@ from __future__ import annotations
 import concurrent.futures as cf
 import multiprocessing as mp
 import os
-import signal
 import threading
 import time
 from typing import Sequence
@@ -21,15 +25,22 @@ from typing import Sequence
 from fcsweep.config import RunSpec, SweepConfig, check_runnable
 from fcsweep.io import schema
 from fcsweep.io.locks import DEFAULT_STALE_AFTER
+from fcsweep.io.rundir import RunDirectory
 from fcsweep.io.status import read_status
+from fcsweep.sweep import interrupt
 from fcsweep.sweep.layout import worker_layout
 from fcsweep.sweep.progress import Progress
 from fcsweep.sweep.runner import RunOutcome, run_one
 
-__all__ = ["run_sweep", "select_runs", "worker_layout", "EXECUTORS"]
+__all__ = ["run_sweep", "select_runs", "worker_layout", "unfinished", "EXECUTORS"]
 
 EXECUTORS = ("serial", "process", "dask")
 _POLL = 0.5
+#: Seconds that running runs get to checkpoint after a stop request before pool workers
+#: are terminated (they then resume from their previous checkpoint).
+STOP_GRACE = 120.0
+#: Seconds between two looks of a Dask run at the stop event.
+_DASK_STOP_POLL = 2.0
 #: One run at a time per process for Dask worker threads: numba's parallel kernels may not
 #: be launched from several threads at once with every threading layer (workqueue).
 _THREAD_RUN_LOCK = threading.Lock()
@@ -47,12 +58,8 @@ def select_runs(cfg: SweepConfig, *, task_index: int | None = None, retry_failed
     return specs
 
 
-def _sigterm(signum, frame):
-    raise SystemExit(128 + signum)
-
-
 def _init_worker(threads: int) -> None:
-    signal.signal(signal.SIGTERM, _sigterm)  # release the run lock on termination
+    interrupt.install()  # SIGTERM/SIGINT: checkpoint the current run, start no other
     os.environ["NUMBA_NUM_THREADS"] = str(threads)
     _set_numba_threads(threads)
 
@@ -68,24 +75,53 @@ def _set_numba_threads(threads: int) -> None:
         pass
 
 
-def _task(cfg: SweepConfig, spec: RunSpec, force: bool, stale_after: float, skip_failed: bool) -> RunOutcome:
-    """Picklable unit of work for pools and Dask."""
+def _rundir(cfg: SweepConfig, spec: RunSpec) -> RunDirectory:
+    return RunDirectory(cfg.run_dir(spec.run_id), spec.run_id, spec.index, spec.params)
+
+
+def _task(cfg: SweepConfig, spec: RunSpec, force: bool, stale_after: float, skip_failed: bool,
+          stop=None, progress=None) -> RunOutcome:
+    """Picklable unit of work for pools and Dask.  With ``skip_failed``, a run that failed
+    for a reason a relaunch does not fix (not an I/O error) is reported, not rerun."""
     if skip_failed:
-        st = read_status(cfg.run_dir(spec.run_id)) or {}
-        if st.get("status") == schema.FAILED:
+        rd = _rundir(cfg, spec)
+        if rd.failed_for_good():
             return RunOutcome(spec.index, spec.run_id, "failed",
-                              f"failed earlier ({st.get('reason', '')}); use --retry-failed")
-    return run_one(cfg, spec, force=force, stale_after=stale_after)
+                              f"failed earlier ({rd.status().get('reason', '')}); use --retry-failed")
+    return run_one(cfg, spec, force=force, stale_after=stale_after, stop=stop, progress=progress)
 
 
-def _spec_task(spec: RunSpec, cfg: SweepConfig, force: bool, stale_after: float, skip_failed: bool) -> RunOutcome:
+class _DaskStop:
+    """Stop flag of a Dask run: the distributed ``Event`` the submitter sets, polled at
+    most every few seconds."""
+
+    def __init__(self, name: str):
+        self.name, self.last, self.value = name, 0.0, None
+
+    def __call__(self) -> str | None:
+        now = time.monotonic()
+        if self.value is None and now - self.last >= _DASK_STOP_POLL:
+            self.last = now
+            try:
+                from distributed import Event
+
+                if Event(self.name).is_set():
+                    self.value = "stop requested by the submitting process"
+            except Exception:  # noqa: BLE001 - scheduler unreachable: keep computing
+                pass
+        return self.value
+
+
+def _spec_task(spec: RunSpec, cfg: SweepConfig, force: bool, stale_after: float, skip_failed: bool,
+               stop_event: str | None = None) -> RunOutcome:
     """:func:`_task` with the run first, for ``Client.map``; one run per worker process
     at a time (start Dask workers with ``--nthreads 1`` and several ``--nworkers``)."""
+    stop = _DaskStop(stop_event) if stop_event else None
     with _THREAD_RUN_LOCK:
         # one numba thread per run: a Dask worker process runs one run at a time and a
         # node runs one worker process per core
         _set_numba_threads(1)
-        return _task(cfg, spec, force, stale_after, skip_failed)
+        return _task(cfg, spec, force, stale_after, skip_failed, stop=stop)
 
 
 def _describe(o: RunOutcome, spec: RunSpec) -> str:
@@ -93,6 +129,7 @@ def _describe(o: RunOutcome, spec: RunSpec) -> str:
         "done": "computed",
         "skipped": "skipped (already done)",
         "locked": "skipped (held by another process)",
+        "interrupted": "interrupted",
         "failed": "FAILED",
     }[o.outcome]
     extra = f": {o.message}" if o.message and o.outcome != "skipped" else ""
@@ -131,12 +168,10 @@ def run_sweep(
     if executor == "serial" or (executor == "process" and workers <= 1):
         out = []
         for spec in specs:
-            if skip_failed and (read_status(cfg.run_dir(spec.run_id)) or {}).get("status") == schema.FAILED:
-                o = _task(cfg, spec, force, stale_after, True)
-            else:
-                o = run_one(cfg, spec, force=force, stale_after=stale_after,
-                            progress=lambda s, step, n: progress.update(s.run_id, s.label(), step, n))
-            progress.run_finished(spec.run_id, _describe(o, spec))
+            o = _task(cfg, spec, force, stale_after, skip_failed,
+                      progress=lambda s, step, n: progress.update(s.run_id, s.label(), step, n))
+            if not (o.outcome == "interrupted" and o.message == "not started"):
+                progress.run_finished(spec.run_id, _describe(o, spec))
             out.append(o)
         return out
     if executor == "process":
@@ -145,48 +180,103 @@ def run_sweep(
         with cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_worker,
                                     initargs=(threads,)) as pool:
             futs = [pool.submit(_task, cfg, s, force, stale_after, skip_failed) for s in specs]
-            try:
-                return _collect(cfg, specs, futs, progress, workers,
-                                done=lambda f: f.done(), result=lambda f: f.result())
-            except BaseException:  # SIGTERM / Ctrl-C: stop workers so they release their locks
+
+            def on_stop(signum: int) -> None:
                 for f in futs:
-                    f.cancel()
+                    f.cancel()  # not yet handed to a worker
+                for proc in list(getattr(pool, "_processes", {}).values()):
+                    try:
+                        os.kill(proc.pid, signum)  # the worker checkpoints its run, starts no other
+                    except OSError:
+                        pass
+
+            def give_up() -> None:
                 for proc in list(getattr(pool, "_processes", {}).values()):
                     proc.terminate()
+
+            try:
+                return _collect(cfg, specs, futs, progress, workers, done=lambda f: f.done(),
+                                result=lambda f: f.result(), on_stop=on_stop, give_up=give_up)
+            except BaseException:
+                give_up()
                 raise
     # dask
     if not scheduler:
         raise ValueError("--executor dask needs --scheduler ADDRESS (e.g. tcp://host:8786)")
-    from distributed import Client
+    from distributed import Client, Event
 
     with Client(scheduler, timeout="30s", set_as_default=False) as client:
+        event_name = f"fcsweep-stop-{os.getpid()}-{time.time_ns()}"
         futs = client.map(
             _spec_task, specs, cfg=cfg, force=force, stale_after=stale_after, skip_failed=skip_failed,
-            pure=False, key=[f"fcsweep-{s.run_id}-{time.time_ns()}" for s in specs],
+            stop_event=event_name, pure=False, key=[f"fcsweep-{s.run_id}-{time.time_ns()}" for s in specs],
         )
         try:
             n_workers = max(1, len(client.scheduler_info().get("workers", {})))
         except Exception:  # noqa: BLE001
             n_workers = 1
-        return _collect(cfg, specs, futs, progress, n_workers,
-                        done=lambda f: f.done(), result=lambda f: f.result())
+
+        def on_stop(signum: int) -> None:
+            Event(event_name, client=client).set()  # running runs checkpoint, queued ones return at once
+
+        return _collect(cfg, specs, futs, progress, n_workers, done=lambda f: f.done(),
+                        result=lambda f: f.result(), on_stop=on_stop, give_up=lambda: client.cancel(futs))
 
 
-def _collect(cfg, specs, futs, progress: Progress, width: int, *, done, result) -> list[RunOutcome]:
-    """Wait for futures, showing per-run progress read from status.json files."""
+def unfinished(cfg: SweepConfig, outcomes: Sequence[RunOutcome],
+               stale_after: float = DEFAULT_STALE_AFTER) -> list[RunOutcome]:
+    """Runs skipped as held by another process whose holder is gone: not done and not held
+    by a lock with a live heartbeat (e.g. a worker killed on another host).  A sweep that
+    ends with such runs is not complete; the next launch (after the lock goes stale, at
+    most ``stale_after`` seconds) computes them."""
+    out = []
+    for o in outcomes:
+        if o.outcome != "locked":
+            continue
+        rd = RunDirectory(cfg.run_dir(o.run_id), o.run_id, o.index)
+        if rd.state(stale_after) != schema.DONE and rd.live_lock(stale_after) is None:
+            out.append(o)
+    return out
+
+
+def _collect(cfg, specs, futs, progress: Progress, width: int, *, done, result, on_stop=None,
+             give_up=None) -> list[RunOutcome]:
+    """Wait for futures, showing per-run progress read from status.json files.  On a stop
+    request, ``on_stop(signum)`` is called once; after :data:`STOP_GRACE` seconds,
+    ``give_up()``, and unfinished futures are reported interrupted."""
     outcomes: list[RunOutcome | None] = [None] * len(specs)
     pending = list(range(len(specs)))
+    stopped_at = None
     while pending:
+        sig = interrupt.requested()
+        if sig is not None and stopped_at is None:
+            stopped_at = time.monotonic()
+            if on_stop is not None:
+                on_stop(sig)
+        if stopped_at is not None and time.monotonic() - stopped_at > STOP_GRACE:
+            if give_up is not None:
+                give_up()
+            for i in pending:
+                outcomes[i] = RunOutcome(specs[i].index, specs[i].run_id, "interrupted",
+                                         f"no checkpoint within {STOP_GRACE:.0f} s; resumes from the previous one")
+            break
         still = []
         for i in pending:
             if done(futs[i]):
                 spec = specs[i]
                 try:
                     o = result(futs[i])
+                except cf.CancelledError:
+                    o = RunOutcome(spec.index, spec.run_id, "interrupted", "not started")
                 except Exception as exc:  # noqa: BLE001 - worker died (killed, OOM, ...)
-                    o = RunOutcome(spec.index, spec.run_id, "failed", f"worker error: {type(exc).__name__}: {exc}")
+                    if stopped_at is not None:
+                        o = RunOutcome(spec.index, spec.run_id, "interrupted", f"worker stopped: {exc}")
+                    else:
+                        o = RunOutcome(spec.index, spec.run_id, "failed",
+                                       f"worker error: {type(exc).__name__}: {exc}")
                 outcomes[i] = o
-                progress.run_finished(spec.run_id, _describe(o, spec))
+                if not (o.outcome == "interrupted" and o.message == "not started"):
+                    progress.run_finished(spec.run_id, _describe(o, spec))
             else:
                 still.append(i)
         pending = still

@@ -1,6 +1,7 @@
 """Compute one run of a sweep: lock, resume from checkpoint, write H5MD frames, finish.
 
-Life of a run directory ``<output>/runs/<run_id>/``:
+Life of a run directory ``<output>/runs/<run_id>/`` (its states and their transitions
+belong to :class:`fcsweep.io.rundir.RunDirectory`):
 
 1. ``run.lock`` is taken (:mod:`fcsweep.io.locks`); a run held by a live process is skipped.
 2. Fresh start: ``trajectory.h5.partial`` is created empty.  Resume: ``checkpoint.npz`` is
@@ -10,8 +11,21 @@ Life of a run directory ``<output>/runs/<run_id>/``:
 3. Frames are buffered in memory and appended in one open-append-close step at every
    checkpoint (and whenever the buffer passes ``SPILL_BYTES``); then the checkpoint is
    replaced atomically.  The HDF5 file is therefore closed almost all the time.
-4. When all steps are done the file is marked ``complete`` and renamed to
-   ``trajectory.h5`` (atomic), then ``status.json`` says ``done``.
+4. When all steps are done the file is marked ``complete``, repacked into a fresh file
+   (appends leave unused space behind) that replaces ``trajectory.h5`` atomically, then
+   ``status.json`` says ``done``.
+
+Faults, each handled once in :func:`run_one`:
+
+- a stop request (SIGTERM/SIGINT/SIGUSR1, :mod:`fcsweep.sweep.interrupt`) is checked
+  between pieces of integration of about half a second: the buffered frames are
+  appended, a checkpoint is written at the *current* step (the state is exact), the run
+  is marked ``interrupted`` and the lock released;
+- an environmental I/O error (ENOSPC, EDQUOT, EIO, EROFS) marks the run ``failed`` with
+  cause ``io``; the last checkpoint and its frames stay, and the next launch resumes
+  there.  Free space is checked before every write, so HDF5 never meets a full disk;
+- a done run whose trajectory is damaged (checksums, truncation) is marked ``corrupt``
+  and computed again (bit for bit the same, runs are deterministic).
 
 Testing hooks (environment variables, read at run time):
 
@@ -29,6 +43,7 @@ Testing hooks (environment variables, read at run time):
 
 from __future__ import annotations
 
+import functools
 import json
 import os
 import signal
@@ -43,24 +58,31 @@ import numpy as np
 
 from fcsweep.config import RunSpec, SweepConfig
 from fcsweep.io import schema
-from fcsweep.io.checkpoint import load_checkpoint, save_checkpoint, split_meta, fsync_dir
+from fcsweep.io.checkpoint import fsync_dir, load_checkpoint, save_checkpoint, split_meta
 from fcsweep.io.h5md import (
     append_frames,
     create_trajectory,
     frame_count,
     read_parameters,
+    repack,
     set_attrs,
     truncate_frames,
+    verify_trajectory,
 )
-from fcsweep.io.locks import DEFAULT_STALE_AFTER, LockLost, RunLock
-from fcsweep.io.status import read_status, write_status
+from fcsweep.io.locks import DEFAULT_STALE_AFTER, LockLost
+from fcsweep.io.rundir import RunDirectory, ensure_free_space, io_error_cause, now_iso
+from fcsweep.sweep import interrupt
 
-__all__ = ["RunOutcome", "run_one", "fingerprint_of", "SPILL_BYTES"]
+__all__ = ["RunOutcome", "run_one", "fingerprint_of", "trajectory_bytes", "SPILL_BYTES"]
 
 #: Buffered frames are written to the trajectory once they exceed this many bytes.
 SPILL_BYTES = 64 * 2**20
 #: Seconds between status.json refreshes while a run computes.
 STATUS_INTERVAL = 2.0
+#: Target wall time of one piece of integration between two checks for a stop request.
+PIECE_SECONDS = 0.5
+#: Bytes kept free beyond every write (HDF5 metadata, status files).
+SPACE_MARGIN = 4 << 20
 
 
 @dataclass
@@ -68,7 +90,8 @@ class RunOutcome:
     """What happened to one run in one invocation.
 
     ``outcome`` is ``done`` (computed now), ``skipped`` (already done), ``locked`` (held by
-    another live process; not a failure) or ``failed``.
+    another live process; not a failure), ``interrupted`` (stopped by a signal, with a
+    checkpoint; or not started because a stop was requested) or ``failed``.
     """
 
     index: int
@@ -134,8 +157,46 @@ def _injected_failure(run_id: str) -> None:
 # ---------------------------------------------------------------------------- helpers
 
 
-def _now() -> str:
-    return time.strftime("%Y-%m-%dT%H:%M:%S%z")
+_now = now_iso
+
+
+class Interrupted(Exception):
+    """A stop was requested; the run was checkpointed at ``step``."""
+
+    def __init__(self, signal_name: str, step: int):
+        super().__init__(f"{signal_name} at step {step}")
+        self.signal_name, self.step = signal_name, int(step)
+
+
+def trajectory_bytes(cfg: SweepConfig, spec: RunSpec) -> int:
+    """Uncompressed size of one run's trajectory (an upper bound for gzip/lzf files)."""
+    n = int(spec.params["N"])
+    modes = int(spec.params.get("modes", 0))
+    per_cell = {"position": 16, "image": 8, "theta": 8, "shape_a": 8 * max(modes - 1, 0),
+                "shape_b": 8 * max(modes - 1, 0)}
+    frame = 24 + n * sum(per_cell[f] for f in cfg.store.fields)
+    return int(cfg.run.n_frames) * frame
+
+
+@functools.lru_cache(maxsize=1)
+def git_commit() -> str | None:
+    """Commit of the fcsweep source tree when it is a git checkout (``+dirty`` if it has
+    uncommitted changes), else ``None``."""
+    import subprocess
+
+    import fcsweep
+
+    src = Path(fcsweep.__file__).resolve().parent
+    try:
+        head = subprocess.run(["git", "-C", str(src), "rev-parse", "HEAD"], capture_output=True, text=True,
+                              timeout=10)
+        if head.returncode != 0:
+            return None
+        dirty = subprocess.run(["git", "-C", str(src), "status", "--porcelain", "--untracked-files=no", "."],
+                               capture_output=True, text=True, timeout=10)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return head.stdout.strip() + ("+dirty" if dirty.stdout.strip() else "")
 
 
 def _fields_for(cfg: SweepConfig, modes_width: int) -> tuple[str, ...]:
@@ -185,6 +246,9 @@ def _parameters(cfg: SweepConfig, spec: RunSpec, fields, fingerprint: str) -> di
         fingerprint=fingerprint,
         complete=0,
     )
+    commit = git_commit()
+    if commit:
+        par["git_commit"] = commit
     return par
 
 
@@ -216,6 +280,14 @@ def _conflict_message(path, have, want) -> str:
             "directory (or --force to recompute it)")
 
 
+def _damage(rd: RunDirectory, n_frames: int) -> str | None:
+    """Problem of a done run's trajectory: a full checksum read unless the file still has
+    the size and mtime recorded when it was finished (``status --verify`` always reads)."""
+    if rd.unchanged_since_done():
+        return None
+    return rd.verify(n_frames)
+
+
 def run_one(
     cfg: SweepConfig,
     spec: RunSpec,
@@ -223,8 +295,9 @@ def run_one(
     progress: Callable[[RunSpec, int, int], None] | None = None,
     stale_after: float = DEFAULT_STALE_AFTER,
     force: bool = False,
+    stop: Callable[[], str | None] | None = None,
 ) -> RunOutcome:
-    """Compute (or resume, or skip) one run; never raises for a failing simulation.
+    """Compute (or resume, or skip) one run; never raises for a failing run.
 
     Parameters
     ----------
@@ -236,75 +309,102 @@ def run_one(
         Heartbeat age (s) after which another host's lock is considered stale.
     force : bool
         Recompute even if the run is done (a held lock is still respected).
+    stop : callable, optional
+        Returns the name of a requested stop (e.g. ``"SIGTERM"``) or ``None``; checked
+        about every :data:`PIECE_SECONDS`.  Default: this process's signal flag
+        (:func:`fcsweep.sweep.interrupt.reason`).
 
     Returns
     -------
     RunOutcome
     """
-    run_dir = cfg.run_dir(spec.run_id)
-    run_dir.mkdir(parents=True, exist_ok=True)
-    traj = run_dir / schema.TRAJECTORY
-    fp = fingerprint_of(cfg, spec)
-    st = read_status(run_dir)
+    stop = stop or interrupt.reason
+    if stop():
+        return RunOutcome(spec.index, spec.run_id, "interrupted", "not started")
+    rd = RunDirectory(cfg.run_dir(spec.run_id), spec.run_id, spec.index, spec.params)
     try:
-        if not force and _is_done(st, traj, fp):
-            return RunOutcome(spec.index, spec.run_id, "skipped", "already done", int(st.get("steps_done", 0)))
+        rd.path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        return RunOutcome(spec.index, spec.run_id, "failed",
+                          f"cannot create {rd.path}: {io_error_cause(exc) or exc}")
+    fp = fingerprint_of(cfg, spec)
+    damaged = None
+    try:
+        st = rd.status()
+        if not force and _is_done(st, rd.trajectory, fp):
+            damaged = _damage(rd, cfg.run.n_frames)
+            if damaged is None:
+                return RunOutcome(spec.index, spec.run_id, "skipped", "already done", int(st.get("steps_done", 0)))
     except RunConflict as exc:
         return RunOutcome(spec.index, spec.run_id, "failed", str(exc))
-    lock = RunLock(run_dir / schema.LOCK, stale_after=stale_after)
-    if not lock.acquire():
-        h = lock.held_by or {}
-        return RunOutcome(
-            spec.index, spec.run_id, "locked",
-            f"held by pid {h.get('pid')} on {h.get('host')} since {h.get('started')}",
-        )
+    if not rd.acquire(stale_after):
+        return RunOutcome(spec.index, spec.run_id, "locked", rd.held_by())
     t0 = time.time()
-    lock.start_heartbeat()
     try:
-        st = read_status(run_dir)  # re-check: another process may have finished meanwhile
-        if not force and _is_done(st, traj, fp):
-            return RunOutcome(spec.index, spec.run_id, "skipped", "already done", int(st.get("steps_done", 0)))
-        return _compute(cfg, spec, run_dir, lock, st or {}, progress, force, t0)
+        st = rd.status()  # re-check: another process may have finished (or repaired) it meanwhile
+        if not force and _is_done(st, rd.trajectory, fp):
+            damaged = _damage(rd, cfg.run.n_frames)
+            if damaged is None:
+                return RunOutcome(spec.index, spec.run_id, "skipped", "already done", int(st.get("steps_done", 0)))
+        if damaged is not None:
+            rd.mark_corrupt(damaged)
+            rd.trajectory.unlink()
+        out = _compute(cfg, spec, rd, rd.status(), progress, force or damaged is not None, t0, stop)
+        if damaged is not None:
+            out.message = f"recomputed damaged trajectory ({damaged})" + (f"; {out.message}" if out.message else "")
+        return out
+    except Interrupted as it:
+        rd.mark_interrupted(it.signal_name, it.step, steps_done=it.step,
+                            wall_seconds=round(float(rd.status().get("wall_seconds", 0.0)), 3))
+        return RunOutcome(spec.index, spec.run_id, "interrupted",
+                          f"{it.signal_name}: checkpoint at step {it.step}", it.step, time.time() - t0)
     except LockLost as exc:  # another process owns the run now: write nothing more
-        lock.token = None
+        rd.lock.token = None
         return RunOutcome(spec.index, spec.run_id, "locked", f"stopped: {exc}", 0, time.time() - t0)
     except RunConflict as exc:  # the directory holds another sweep's results: touch nothing
         return RunOutcome(spec.index, spec.run_id, "failed", str(exc), 0, time.time() - t0)
     except Exception as exc:  # noqa: BLE001 - a failed run must not stop the sweep
-        reason = f"{type(exc).__name__}: {exc}"
-        prev = read_status(run_dir) or {}
-        write_status(
-            run_dir,
-            {
-                **prev,
-                "status": schema.FAILED,
-                "reason": reason,
-                "traceback": traceback.format_exc(limit=8),
-                "run_id": spec.run_id,
-                "index": spec.index,
-                "updated": _now(),
-                "host": socket.gethostname(),
-                "pid": os.getpid(),
-            },
-        )
-        return RunOutcome(spec.index, spec.run_id, "failed", reason, int(prev.get("steps_done", 0)), time.time() - t0)
+        cause = io_error_cause(exc)
+        ck = load_checkpoint(rd.checkpoint)
+        at = int(split_meta(ck)[1].get("step", 0)) if ck else 0
+        if cause:
+            reason = f"I/O error: {cause}"
+            rd.mark_failed(reason, schema.CAUSE_IO, checkpoint_step=at)
+            message = f"{reason}; the next launch resumes from step {at} once this is fixed"
+        else:
+            reason = message = f"{type(exc).__name__}: {exc}"
+            rd.mark_failed(reason, schema.CAUSE_SIMULATION, traceback=traceback.format_exc(limit=8))
+        return RunOutcome(spec.index, spec.run_id, "failed", message, at, time.time() - t0)
     finally:
-        lock.release()
+        rd.release()
 
 
-def _compute(cfg, spec, run_dir: Path, lock: RunLock, prev: dict, progress, force: bool, t0: float) -> RunOutcome:
-    from fcsweep.simulation import Simulation
+class _Pace:
+    """Steps per piece of integration so that a piece takes about PIECE_SECONDS."""
 
-    traj = run_dir / schema.TRAJECTORY
-    partial = run_dir / schema.TRAJECTORY_PARTIAL
-    ckp = run_dir / schema.CHECKPOINT
-    steps, se, ce = cfg.run.steps, cfg.run.sample_every, cfg.run.checkpoint_every
-    n_frames = cfg.run.n_frames
+    def __init__(self, first: int):
+        self.n = max(1, int(first))
+
+    def update(self, steps: int, seconds: float) -> None:
+        if steps > 0 and seconds > 0:
+            self.n = int(min(1 << 22, max(1, PIECE_SECONDS * steps / seconds)))
+
+
+def _cleanup_temporaries(run_dir: Path) -> None:
     for tmp in run_dir.glob(".*.tmp"):  # temporaries of a killed writer
         try:
             tmp.unlink()
         except OSError:
             pass
+
+
+def _compute(cfg, spec, rd: RunDirectory, prev: dict, progress, force: bool, t0: float, stop) -> RunOutcome:
+    from fcsweep.simulation import Simulation
+
+    traj, partial, ckp = rd.trajectory, rd.partial, rd.checkpoint
+    steps, se, ce = cfg.run.steps, cfg.run.sample_every, cfg.run.checkpoint_every
+    n_frames = cfg.run.n_frames
+    _cleanup_temporaries(rd.path)
 
     fp_any = fingerprint_of(cfg, spec)
     notes: list[str] = []
@@ -312,16 +412,20 @@ def _compute(cfg, spec, run_dir: Path, lock: RunLock, prev: dict, progress, forc
         # Killed after the final rename but before status.json said done?
         try:
             par = read_parameters(traj)
-            if par.get("fingerprint") == fp_any and par.get("complete") and frame_count(traj) == n_frames:
-                _write(run_dir, spec, schema.DONE, "", steps, steps, prev, t0, par.get("projections_final", 0),
-                       {"fingerprint": fp_any})
-                return RunOutcome(spec.index, spec.run_id, "done", "recovered finished trajectory", steps)
             if par.get("fingerprint") != fp_any:
                 raise RunConflict(_conflict_message(traj, par.get("fingerprint"), fp_any))
+            if verify_trajectory(traj, n_frames) is None:
+                if partial.exists():
+                    partial.unlink()
+                rd.begin({"steps": steps, "fingerprint": fp_any, "attempts": int(prev.get("attempts", 1)),
+                          "wall_seconds": float(prev.get("wall_seconds", 0.0))})
+                rd.mark_done(steps_done=steps, projections=int(par.get("projections_final", 0)))
+                return RunOutcome(spec.index, spec.run_id, "done", "recovered finished trajectory", steps)
         except RunConflict:
             raise
         except Exception:  # noqa: BLE001 - unreadable final file: recompute
-            notes.append("unreadable trajectory.h5 replaced")
+            pass
+        notes.append("damaged trajectory.h5 replaced")
     if traj.exists():
         traj.unlink()
 
@@ -345,6 +449,8 @@ def _compute(cfg, spec, run_dir: Path, lock: RunLock, prev: dict, progress, forc
             sim = Simulation.from_checkpoint(state)
             notes.append(f"resumed from step {sim.state.step}")
         except Exception as exc:  # noqa: BLE001 - corrupt partial file: start over
+            if io_error_cause(exc):
+                raise
             notes.append(f"restarted from step 0 ({type(exc).__name__}: {exc})")
             sim = None
             written = 0
@@ -355,6 +461,7 @@ def _compute(cfg, spec, run_dir: Path, lock: RunLock, prev: dict, progress, forc
         sim = Simulation.from_lattice(int(spec.params["N"]), **spec.model_params())
         width = int(np.asarray(sim.state.a).shape[1]) if np.ndim(sim.state.a) == 2 else 0
         fields = _fields_for(cfg, width)
+        ensure_free_space(rd.path, SPACE_MARGIN, "a new trajectory")
         create_trajectory(
             partial,
             n_cells=int(spec.params["N"]),
@@ -366,6 +473,7 @@ def _compute(cfg, spec, run_dir: Path, lock: RunLock, prev: dict, progress, forc
             compression=cfg.store.compression,
             compression_level=cfg.store.compression_level,
             creator_version=_version(),
+            frames_per_chunk=max(1, ce // se),
         )
         buffer = [_snapshot(sim, fields)]
     else:
@@ -373,21 +481,50 @@ def _compute(cfg, spec, run_dir: Path, lock: RunLock, prev: dict, progress, forc
         fields = _fields_for(cfg, width)
         buffer = []
 
-    info = {"notes": notes, "attempts": attempts, "wall_before": wall_before, "fingerprint": fp_any}
-    _write(run_dir, spec, schema.RUNNING, "; ".join(notes), int(sim.state.step), steps, prev, t0,
-           int(sim.state.projections), info)
+    rd.begin({"steps": int(steps), "fingerprint": fp_any, "attempts": attempts})
+    reason = "; ".join(notes)
+
+    def record(step: int) -> None:
+        rd.mark_running(reason=reason, steps_done=int(step), projections=int(sim.state.projections),
+                        wall_seconds=round(wall_before + time.time() - t0, 3))
+
+    record(int(sim.state.step))
     last_status = time.time()
     buf_bytes = sum(_frame_bytes(f) for f in buffer)
     checked_failure = False
 
     def commit() -> None:
         nonlocal written, buffer, buf_bytes
-        lock.verify()
+        rd.lock.verify()
+        ensure_free_space(partial, buf_bytes + SPACE_MARGIN, f"appending {len(buffer)} frame(s)")
         written = append_frames(partial, buffer, expected_start=written, after_resize=lambda: _hook("h5-append"))
         buffer, buf_bytes = [], 0
 
+    def checkpoint(step: int) -> None:
+        state = sim.to_checkpoint()
+        need = sum(np.asarray(v).nbytes for v in state.values()) + SPACE_MARGIN
+        ensure_free_space(ckp, need, "the checkpoint")
+        save_checkpoint(ckp, state, {"frames": written, "fingerprint": fp_any, "run_id": spec.run_id, "step": step},
+                        before_replace=lambda _tmp: _hook("checkpoint-write"))
+        _hook("checkpoint")
+        record(step)
+
+    pace = _Pace(min(se, 64))
     while sim.state.step < steps:
-        sim.advance(se)
+        target = min(steps, (int(sim.state.step) // se + 1) * se)
+        while sim.state.step < target:
+            n = min(target - int(sim.state.step), pace.n)
+            t = time.perf_counter()
+            sim.advance(n)
+            pace.update(n, time.perf_counter() - t)
+            why = stop()
+            if why:
+                if int(sim.state.step) == target:  # a frame is due first
+                    buffer.append(_snapshot(sim, fields))
+                if buffer:
+                    commit()
+                checkpoint(int(sim.state.step))
+                raise Interrupted(why, int(sim.state.step))
         if not checked_failure:
             checked_failure = True
             _injected_failure(spec.run_id)
@@ -399,60 +536,39 @@ def _compute(cfg, spec, run_dir: Path, lock: RunLock, prev: dict, progress, forc
         step = int(sim.state.step)
         if step % ce == 0 or step >= steps:
             commit()
-            save_checkpoint(
-                ckp,
-                sim.to_checkpoint(),
-                {"frames": written, "fingerprint": fp_any, "run_id": spec.run_id, "step": step},
-                before_replace=lambda _tmp: _hook("checkpoint-write"),
-            )
-            _hook("checkpoint")
+            checkpoint(step)
         elif buf_bytes > SPILL_BYTES:
             commit()
-        lock.heartbeat()
         if progress is not None:
             progress(spec, step, steps)
         if time.time() - last_status > STATUS_INTERVAL:
-            lock.verify()
-            _write(run_dir, spec, schema.RUNNING, "; ".join(notes), step, steps, prev, t0,
-                   int(sim.state.projections), info)
+            rd.lock.verify()
+            record(step)
             last_status = time.time()
+        why = stop()
+        if why and step < steps:
+            if buffer:
+                commit()
+            checkpoint(step)
+            raise Interrupted(why, step)
     if buffer:  # only when resuming at the very end with frames pending (not expected)
         commit()
 
     projections = int(sim.state.projections)
     set_attrs(partial, schema.PARAMETERS, {"complete": 1, "finished": _now(), "projections_final": projections})
-    os.replace(partial, traj)
-    fsync_dir(run_dir)
+    packed = rd.path / f".{schema.TRAJECTORY}.repack.tmp"
+    ensure_free_space(rd.path, partial.stat().st_size + SPACE_MARGIN, "repacking the finished trajectory")
+    repack(partial, packed)
+    os.replace(packed, traj)
+    partial.unlink()
+    fsync_dir(rd.path)
     _hook("finalize")
-    _write(run_dir, spec, schema.DONE, "; ".join(notes), steps, steps, prev, t0, projections, info)
-    return RunOutcome(spec.index, spec.run_id, "done", "; ".join(notes), steps, time.time() - t0)
+    rd.mark_done(reason=reason, steps_done=steps, projections=projections,
+                 wall_seconds=round(wall_before + time.time() - t0, 3))
+    return RunOutcome(spec.index, spec.run_id, "done", reason, steps, time.time() - t0)
 
 
 def _version() -> str:
     import fcsweep
 
     return fcsweep.__version__
-
-
-def _write(run_dir, spec, status, reason, step, steps, prev, t0, projections, info=None) -> None:
-    info = info or {}
-    wall_before = info.get("wall_before", float(prev.get("wall_seconds", 0.0)))
-    write_status(
-        run_dir,
-        {
-            "status": status,
-            "reason": reason,
-            "run_id": spec.run_id,
-            "index": spec.index,
-            "params": dict(spec.params),
-            "steps_done": int(step),
-            "steps": int(steps),
-            "projections": int(projections),
-            "wall_seconds": round(wall_before + time.time() - t0, 3),
-            "attempts": int(info.get("attempts", prev.get("attempts", 1))),
-            "host": socket.gethostname(),
-            "pid": os.getpid(),
-            "updated": _now(),
-            "fingerprint": info.get("fingerprint"),
-        },
-    )

@@ -7,32 +7,35 @@ from typing import Any
 
 from fcsweep.config import SweepConfig
 from fcsweep.io import schema
-from fcsweep.io.locks import lock_info, lock_is_stale
-from fcsweep.io.status import read_status
+from fcsweep.io.rundir import RunDirectory
 
 __all__ = ["collect_status", "format_status", "summary_line", "STATES"]
 
-#: Displayed states; ``interrupted`` is a ``running`` status whose lock is gone or stale
-#: (the next ``fcsweep simulate`` resumes it from its checkpoint).
-STATES = ("done", "running", "interrupted", "failed", "pending")
+#: Displayed states; ``interrupted`` is a run stopped by a signal or a ``running`` status
+#: whose lock is gone or stale (the next ``fcsweep simulate`` resumes it from its
+#: checkpoint); ``corrupt`` a done run whose trajectory failed verification (the next
+#: ``fcsweep simulate`` recomputes it).
+STATES = ("done", "running", "interrupted", "failed", "corrupt", "pending")
 
 
-def collect_status(cfg: SweepConfig) -> list[dict[str, Any]]:
+def collect_status(cfg: SweepConfig, *, verify: bool = False) -> list[dict[str, Any]]:
     """One dict per run: index, run_id, label, state, steps_done, steps, projections,
-    wall_seconds, reason."""
+    wall_seconds, reason, host.
+
+    With ``verify``, every done run's trajectory is read in full (all checksums) and a
+    damaged one is marked ``corrupt`` in its status file (unless a live process holds it).
+    """
     rows = []
     for spec in cfg.runs():
-        run_dir = cfg.run_dir(spec.run_id)
-        st = read_status(run_dir) or {}
-        state = st.get("status", schema.PENDING)
-        lock = lock_info(run_dir / schema.LOCK)
-        live_lock = lock is not None and not lock_is_stale(lock)
-        if state == schema.DONE and not (run_dir / schema.TRAJECTORY).exists():
-            state = "pending"
-        if live_lock and state != schema.DONE:
-            state = "running"
-        elif state == schema.RUNNING:
-            state = "interrupted"
+        rd = RunDirectory(cfg.run_dir(spec.run_id), spec.run_id, spec.index, spec.params)
+        state = rd.state()
+        if verify and state == schema.DONE:
+            problem = rd.verify(cfg.run.n_frames)
+            if problem is not None:
+                rd.mark_corrupt(problem)
+                state = schema.CORRUPT
+        st = rd.status()
+        lock = rd.live_lock()
         rows.append(
             {
                 "index": spec.index,
@@ -44,7 +47,7 @@ def collect_status(cfg: SweepConfig) -> list[dict[str, Any]]:
                 "projections": st.get("projections"),
                 "wall_seconds": st.get("wall_seconds"),
                 "reason": st.get("reason", ""),
-                "host": (lock or {}).get("host") if live_lock else st.get("host"),
+                "host": lock.get("host") if lock else st.get("host"),
             }
         )
     return rows
@@ -68,7 +71,7 @@ def format_status(rows: list[dict[str, Any]], *, reasons: bool = True) -> str:
         lines.append(
             f"{r['index']:>4}  {r['run_id']:12}  {r['state']:11}  {prog:>14}  {proj:>6}  {wall:>8}  {r['label']}"
         )
-        if reasons and r["state"] == "failed" and r["reason"]:
+        if reasons and r["state"] in ("failed", "corrupt", "interrupted") and r["reason"]:
             lines.append(f"{'':6}reason: {r['reason']}")
     lines.append(summary_line(rows))
     return "\n".join(lines)

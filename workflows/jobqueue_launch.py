@@ -8,16 +8,21 @@ started yourself).  Workers need the same Python environment and the sweep's out
 directory on a shared file system.  Interrupting the launcher loses nothing: run it again
 and finished runs are skipped, interrupted ones resume from their checkpoints.
 
-Install: ``pip install "fcsweep[cluster]"`` (adds dask-jobqueue).
+Install: ``pip install "fcsweep[cluster]"`` (adds dask-jobqueue).  (The file is not called
+``dask_jobqueue.py``: run as a script, that name would shadow the package itself.)
+
+``--interface ib0`` (or ``eth1``...) picks the network interface the scheduler and the
+workers listen on, for clusters whose compute nodes reach the login node only over a
+fast internal network.
 
 Examples
 --------
 ::
 
-    python workflows/dask_jobqueue.py configs/phase.yaml --system slurm --jobs 8 \\
+    python workflows/jobqueue_launch.py configs/phase.yaml --system slurm --jobs 8 \\
         --queue normal --walltime 24:00:00 --memory 4GB --account myproj
-    python workflows/dask_jobqueue.py configs/phase.yaml --system pbs --dry-run   # print the job script
-    python workflows/dask_jobqueue.py configs/smoke.yaml --local --jobs 2        # no batch system
+    python workflows/jobqueue_launch.py configs/phase.yaml --system pbs --dry-run   # print the job script
+    python workflows/jobqueue_launch.py configs/smoke.yaml --local --jobs 2        # no batch system
 
 Exit codes as ``fcsweep simulate``: 0 ok, 1 some run failed, 2 bad config or arguments.
 """
@@ -41,6 +46,8 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--queue", default=None, help="queue / partition")
     p.add_argument("--account", default=None, help="account / project to charge")
     p.add_argument("--job-extra", action="append", default=[], help="extra scheduler directive (repeatable)")
+    p.add_argument("--interface", default=None,
+                   help="network interface of scheduler and workers, e.g. ib0 (default: the hostname's)")
     p.add_argument("--dry-run", action="store_true", help="print the batch job script and exit")
     p.add_argument("--local", action="store_true", help="use a LocalCluster instead of a batch system")
     p.add_argument("--retry-failed", action="store_true", help="run only failed runs")
@@ -70,6 +77,7 @@ def make_cluster(args: argparse.Namespace):
         job_extra_directives=list(args.job_extra),
         job_script_prologue=["export NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1"],
         job_name="fcsweep",
+        interface=args.interface,
     )
     if args.system == "lsf":
         kwargs.pop("account")
@@ -86,7 +94,10 @@ def main(argv=None) -> int:
     except ConfigError as exc:
         print(f"invalid config: {exc}", file=sys.stderr)
         return 2
+    from fcsweep.sweep import interrupt
+
     cluster = make_cluster(args)
+    previous = interrupt.install()  # SIGTERM/Ctrl-C: every running run checkpoints first
     try:
         if args.dry_run:
             local = f"LocalCluster {cluster.scheduler_address}"
@@ -106,10 +117,21 @@ def main(argv=None) -> int:
         finally:
             progress.close()
     finally:
+        interrupt.restore(previous)
         cluster.close()
+    from fcsweep.sweep.executors import unfinished
+
     failed = [o for o in outcomes if o.outcome == "failed"]
+    lost = unfinished(cfg, outcomes)
     print(f"{sum(o.outcome == 'done' for o in outcomes)} computed, {len(failed)} failed", file=sys.stderr)
-    return 1 if failed else 0
+    for o in failed + lost:
+        print(f"  {o.outcome if o in failed else 'unfinished'}: run {o.index} {o.run_id}: {o.message}",
+              file=sys.stderr)
+    sig = interrupt.requested()
+    if sig is not None:
+        print(f"stopped by {interrupt.reason()}; run the same command again to resume", file=sys.stderr)
+        return interrupt.exit_code(sig)
+    return 1 if failed or lost else 0
 
 
 if __name__ == "__main__":

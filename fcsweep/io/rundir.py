@@ -1,0 +1,249 @@
+"""One run directory ``<output>/runs/<run_id>/``: its files, its lock and its state.
+
+:class:`RunDirectory` owns the transitions of a run's ``status.json``::
+
+    pending -> running -> done
+                 |-> interrupted   (signal: checkpoint written at the current step)
+                 |-> failed        (cause "simulation": final until --retry-failed;
+                 |                  cause "io": disk full, quota, EIO, read-only --
+                 |                  the next launch resumes from the last checkpoint)
+    done -> corrupt                (the trajectory fails its checksums; recomputed)
+
+so that the sweep runner handles each fault in one place.  Writes of the failure states
+are best effort: a full disk may refuse even ``status.json``, and the run's lock is
+released whatever happens (the state then reads ``interrupted``, which resumes too).
+"""
+
+from __future__ import annotations
+
+import errno
+import os
+import re
+import shutil
+import socket
+import time
+from pathlib import Path
+from typing import Any
+
+from fcsweep.io import schema
+from fcsweep.io.checkpoint import load_checkpoint, split_meta
+from fcsweep.io.h5md import verify_trajectory
+from fcsweep.io.locks import DEFAULT_STALE_AFTER, RunLock, lock_info, lock_is_stale
+from fcsweep.io.status import read_status, write_status
+
+__all__ = ["RunDirectory", "io_error_cause", "free_bytes", "ensure_free_space", "now_iso"]
+
+#: errno -> what an operator should read.
+_IO_ERRNOS = {
+    errno.ENOSPC: "no space left on device",
+    errno.EDQUOT: "disk quota exceeded",
+    errno.EIO: "input/output error",
+    errno.EROFS: "read-only file system",
+    errno.EACCES: "permission denied",
+    errno.EPERM: "operation not permitted",
+    errno.EFBIG: "file too large",
+    errno.ESTALE: "stale NFS file handle",
+}
+_ERRNO_IN_TEXT = re.compile(r"errno = (\d+)|\[Errno (\d+)\]")
+
+
+def now_iso() -> str:
+    """Local time stamp as written into status files."""
+    return time.strftime("%Y-%m-%dT%H:%M:%S%z")
+
+
+def io_error_cause(exc: BaseException) -> str | None:
+    """``"no space left on device (path)"`` etc. if ``exc`` is an environmental I/O error.
+
+    Recognises ``OSError.errno`` and the ``errno = N`` that HDF5 puts into h5py's
+    messages; ``None`` for anything else (a bug or a simulation failure).
+    """
+    if not isinstance(exc, OSError):
+        return None
+    code = exc.errno
+    if code is None:
+        m = _ERRNO_IN_TEXT.search(str(exc))
+        if m:
+            code = int(m.group(1) or m.group(2))
+    if code not in _IO_ERRNOS:
+        return None
+    where = f" ({exc.filename})" if getattr(exc, "filename", None) else ""
+    return f"{_IO_ERRNOS[code]}{where}"
+
+
+def free_bytes(path) -> int:
+    """Bytes available to this user on the file system holding ``path`` (or its nearest
+    existing ancestor)."""
+    p = Path(path).absolute()
+    while not p.exists() and p.parent != p:
+        p = p.parent
+    return int(shutil.disk_usage(p).free)
+
+
+def ensure_free_space(path, need: int, what: str) -> None:
+    """Raise ``OSError(ENOSPC)`` *before* writing ``need`` bytes that would not fit.
+
+    HDF5 does not always fail cleanly when a write hits a full disk (it can leave a file
+    that cannot be reopened for writing, or crash), so writers check first.
+    """
+    free = free_bytes(path)
+    if free < need:
+        raise OSError(errno.ENOSPC, f"No space left on device: {what} needs {need / 2**20:.1f} MiB, "
+                                    f"{free / 2**20:.1f} MiB free", str(path))
+
+
+class RunDirectory:
+    """Files, lock and state of one run.
+
+    Parameters
+    ----------
+    path : path-like
+        ``<output>/runs/<run_id>``.
+    run_id : str
+    index : int
+        Position of the run in its sweep.
+    params : mapping, optional
+        Model parameters, recorded in ``status.json``.
+    """
+
+    def __init__(self, path, run_id: str, index: int, params: dict | None = None):
+        self.path = Path(path)
+        self.run_id = run_id
+        self.index = int(index)
+        self.params = dict(params or {})
+        self.trajectory = self.path / schema.TRAJECTORY
+        self.partial = self.path / schema.TRAJECTORY_PARTIAL
+        self.checkpoint = self.path / schema.CHECKPOINT
+        self.lock_path = self.path / schema.LOCK
+        self.lock: RunLock | None = None
+        self._base: dict[str, Any] = {}
+
+    # ------------------------------------------------------------------ reading
+
+    def status(self) -> dict[str, Any]:
+        """``status.json`` (``{}`` if none or unreadable)."""
+        return read_status(self.path) or {}
+
+    def live_lock(self, stale_after: float = DEFAULT_STALE_AFTER) -> dict[str, Any] | None:
+        """The lock's contents if a live process holds it (fresh heartbeat), else ``None``."""
+        info = lock_info(self.lock_path)
+        return info if info is not None and not lock_is_stale(info, stale_after) else None
+
+    def state(self, stale_after: float = DEFAULT_STALE_AFTER) -> str:
+        """The state a reader should show: the status word, with ``running`` only while a
+        live lock backs it (else ``interrupted``) and ``done`` only with a trajectory."""
+        st = self.status().get("status", schema.PENDING)
+        if st == schema.DONE and not self.trajectory.exists():
+            st = schema.PENDING
+        if st != schema.DONE and self.live_lock(stale_after) is not None:
+            return schema.RUNNING
+        if st == schema.RUNNING:
+            return schema.INTERRUPTED
+        return st
+
+    def committed_frames(self) -> int:
+        """Frames of a running run that a live reader may use: those the last checkpoint
+        covers (later frames of ``trajectory.h5.partial`` may be mid-append)."""
+        ck = load_checkpoint(self.checkpoint)
+        if ck is None:
+            return 0
+        return int(split_meta(ck)[1].get("frames", 0))
+
+    def verify(self, n_frames: int | None = None) -> str | None:
+        """Problem with the finished trajectory (see :func:`verify_trajectory`), or ``None``."""
+        if not self.trajectory.exists():
+            return "trajectory.h5 is missing"
+        return verify_trajectory(self.trajectory, n_frames)
+
+    def unchanged_since_done(self) -> bool:
+        """Whether trajectory.h5 has the size and mtime recorded when the run finished
+        (a cheap test; :meth:`verify` reads every checksum)."""
+        rec = self.status().get("trajectory")
+        try:
+            st = self.trajectory.stat()
+        except OSError:
+            return False
+        return isinstance(rec, dict) and rec.get("bytes") == st.st_size and rec.get("mtime_ns") == st.st_mtime_ns
+
+    # ------------------------------------------------------------------ locking
+
+    def acquire(self, stale_after: float = DEFAULT_STALE_AFTER) -> bool:
+        """Take the run's lock (and start its heartbeat); ``False`` if a live process holds it."""
+        self.lock = RunLock(self.lock_path, stale_after=stale_after)
+        if not self.lock.acquire():
+            return False
+        self.lock.start_heartbeat()
+        return True
+
+    def held_by(self) -> str:
+        h = (self.lock.held_by if self.lock else None) or {}
+        return f"held by pid {h.get('pid')} on {h.get('host')} since {h.get('started')}"
+
+    def release(self) -> None:
+        """Release the lock (never raises)."""
+        if self.lock is not None:
+            try:
+                self.lock.release()
+            except OSError:  # pragma: no cover - e.g. the file system went away
+                pass
+
+    # -------------------------------------------------------------- transitions
+
+    def begin(self, base: dict[str, Any]) -> None:
+        """Remember fields written with every later status (steps, fingerprint, attempts...)."""
+        self._base = dict(base)
+
+    def _write(self, status: str, *, best_effort: bool = False, **fields: Any) -> bool:
+        data = {
+            **self._base,
+            "status": status,
+            "run_id": self.run_id,
+            "index": self.index,
+            "params": self.params,
+            "host": socket.gethostname(),
+            "pid": os.getpid(),
+            "updated": now_iso(),
+            **fields,
+        }
+        try:
+            write_status(self.path, data)
+        except OSError:
+            if not best_effort:
+                raise
+            return False
+        return True
+
+    def mark_running(self, **fields: Any) -> None:
+        """Progress of a computing run (``steps_done``, ``projections``, ``wall_seconds``...)."""
+        self._write(schema.RUNNING, reason=fields.pop("reason", ""), **fields)
+
+    def mark_done(self, **fields: Any) -> None:
+        """Finished: records the trajectory's size and mtime for :meth:`unchanged_since_done`."""
+        st = self.trajectory.stat()
+        self._write(schema.DONE, reason=fields.pop("reason", ""),
+                    trajectory={"bytes": st.st_size, "mtime_ns": st.st_mtime_ns}, **fields)
+
+    def mark_interrupted(self, signal_name: str, step: int, **fields: Any) -> bool:
+        """Stopped by a signal with a checkpoint at ``step`` (best effort)."""
+        return self._write(schema.INTERRUPTED, best_effort=True, reason=f"{signal_name} at step {step}",
+                           signal=signal_name, checkpoint_step=int(step), **fields)
+
+    def mark_failed(self, reason: str, cause: str, **fields: Any) -> bool:
+        """Failed; ``cause`` is ``schema.CAUSE_IO`` (retried by the next launch) or
+        ``schema.CAUSE_SIMULATION`` / ``CAUSE_CONFLICT`` (not retried without
+        ``--retry-failed``).  Best effort."""
+        prev = self.status()
+        keep = {k: prev[k] for k in ("steps_done", "projections", "wall_seconds") if k in prev}
+        return self._write(schema.FAILED, best_effort=True, reason=reason, cause=cause, **{**keep, **fields})
+
+    def mark_corrupt(self, problem: str) -> bool:
+        """A done run whose trajectory fails verification (best effort)."""
+        prev = self.status()
+        return self._write(schema.CORRUPT, best_effort=True, reason=f"trajectory.h5 damaged: {problem}",
+                           steps_done=0, steps=prev.get("steps"), fingerprint=prev.get("fingerprint"),
+                           attempts=prev.get("attempts", 1))
+
+    def failed_for_good(self) -> bool:
+        """A failure that relaunching alone will not fix (not an I/O failure)."""
+        st = self.status()
+        return st.get("status") == schema.FAILED and st.get("cause") != schema.CAUSE_IO

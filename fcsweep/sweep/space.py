@@ -1,0 +1,63 @@
+"""Before a sweep starts: can its output directory be created, and do its trajectories fit?"""
+
+from __future__ import annotations
+
+import errno
+import os
+from pathlib import Path
+from typing import Sequence
+
+from fcsweep.config import RunSpec, SweepConfig
+from fcsweep.io import schema
+from fcsweep.io.rundir import free_bytes
+from fcsweep.io.status import read_status
+from fcsweep.sweep.runner import SPACE_MARGIN, trajectory_bytes
+
+__all__ = ["check_space", "check_output_dir"]
+
+
+def check_output_dir(output) -> None:
+    """Raise ``OSError`` unless ``output`` exists as a writable directory or can be created
+    (its nearest existing ancestor is a writable directory)."""
+    p = Path(output).absolute()
+    probe = p
+    while not probe.exists():
+        if probe.parent == probe:
+            break
+        probe = probe.parent
+    if probe.exists() and not probe.is_dir():
+        raise OSError(errno.ENOTDIR, f"output directory {str(output)!r} cannot be created: {probe} is a file")
+    if not os.access(probe, os.W_OK | os.X_OK):
+        raise OSError(errno.EACCES, f"output directory {str(output)!r} cannot be created or written: "
+                                    f"no write permission in {probe}")
+
+
+def check_space(cfg: SweepConfig, specs: Sequence[RunSpec]) -> str | None:
+    """Compare the trajectories still to be written with the free space of the output.
+
+    Raises ``OSError(ENOSPC)`` if even the largest single run cannot fit (its trajectory,
+    uncompressed, plus the copy made when it is repacked at the end); returns a warning if
+    all of them together may not fit (compression usually saves 10-30 % on positions),
+    else ``None``.  Also checks :func:`check_output_dir`.
+    """
+    check_output_dir(cfg.output)
+    todo = [s for s in specs if (read_status(cfg.run_dir(s.run_id)) or {}).get("status") != schema.DONE]
+    if not todo:
+        return None
+    sizes = [trajectory_bytes(cfg, s) for s in todo]
+    free = free_bytes(cfg.output)
+    biggest = 2 * max(sizes) + SPACE_MARGIN  # the partial file and its repacked copy
+    if biggest > free:
+        raise OSError(errno.ENOSPC, f"not enough disk space in {cfg.output}: one run's trajectory needs up to "
+                                    f"{_mib(biggest)} (uncompressed, while it is repacked), {_mib(free)} free; "
+                                    f"store fewer frames (run.sample_every) or fields (output.fields)")
+    total = sum(sizes) + SPACE_MARGIN
+    if total > free:
+        return (f"the {len(todo)} trajectories still to write need up to {_mib(total)} uncompressed and "
+                f"{_mib(free)} are free in {cfg.output}; runs that do not fit will fail with "
+                "'no space left on device' and resume once space is freed")
+    return None
+
+
+def _mib(n: int) -> str:
+    return f"{n / 2**30:.1f} GiB" if n >= 2**30 else f"{n / 2**20:.1f} MiB"
