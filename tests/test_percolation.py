@@ -10,7 +10,13 @@ import numpy as np
 import pytest
 from percolation_lattice import cluster_counts
 
-from fcsweep.analysis.percolation import TAU_2D, fisher_exponent, fisher_window, fit_fisher_exponent
+from fcsweep.analysis.percolation import (
+    TAU_2D,
+    fisher_exponent,
+    fisher_observables,
+    fisher_window,
+    fit_fisher_exponent,
+)
 
 
 @pytest.mark.parametrize("L, n_real, seed", [(32, 2000, 11), (64, 500, 12)])
@@ -24,6 +30,8 @@ def test_exact_critical_percolation_gives_187_over_91(L, n_real, seed):
     assert fit.p_value > 1e-3
     assert fit.tau_lo < fit.tau < fit.tau_hi
     assert fisher_exponent(counts, L * L) == (fit.tau, fit.tau_err)
+    assert fisher_observables(counts, L * L) == {"tau_fisher": fit.tau, "tau_fisher_err": fit.tau_err,
+                                                 "tau_fisher_reason": ""}
 
 
 def test_pure_power_law_estimators_are_biased_on_exact_percolation():
@@ -86,6 +94,7 @@ def test_window_follows_the_critical_cluster_size():
 def test_too_small_a_system_or_too_few_clusters_gives_nan_and_a_reason():
     tau, err = fisher_exponent(np.ones(100), 100)
     assert np.isnan(tau) and np.isnan(err)
+    assert "narrower than a factor 3" in fisher_observables(np.ones(100), 100)["tau_fisher_reason"]
     fit = fit_fisher_exponent(np.r_[np.zeros(5), 3.0, np.zeros(200)], 1024)
     assert np.isnan(fit.tau_err) and "distinct cluster sizes" in fit.reason
 

@@ -307,5 +307,20 @@ def fisher_exponent(counts, n_sites: int, **kwargs) -> tuple[float, float]:
     tau, tau_err : float
         NaN, NaN when the counts cannot determine tau (too small a system or too few clusters).
     """
+    obs = fisher_observables(counts, n_sites, **kwargs)
+    return obs["tau_fisher"], obs["tau_fisher_err"]
+
+
+def fisher_observables(counts, n_sites: int, **kwargs) -> dict:
+    """``tau_fisher``, ``tau_fisher_err`` and ``tau_fisher_reason`` of one state point, for datasets.
+
+    Call it per (eta, v0, N) point on the ``cluster_size_distribution`` pooled over frames
+    (and summed over replicates, which are independent); ``kwargs`` go to
+    :func:`fit_fisher_exponent`.  The values are NaN and the reason says why when the
+    counts cannot determine tau; a non-empty reason with finite values flags a fit that
+    is not in the scaling regime or fits poorly.
+    """
     fit = fit_fisher_exponent(counts, n_sites, **kwargs)
-    return fit.tau if np.isfinite(fit.tau_err) else float("nan"), fit.tau_err
+    ok = np.isfinite(fit.tau_err)
+    return {"tau_fisher": fit.tau if ok else float("nan"), "tau_fisher_err": fit.tau_err,
+            "tau_fisher_reason": fit.reason}
