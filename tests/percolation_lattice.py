@@ -23,10 +23,12 @@ def triangular_bonds(L: int) -> np.ndarray:
     return np.concatenate([np.stack([i, j]) for j in js], axis=1)
 
 
-def cluster_counts(L: int, n_realisations: int, p: float = 0.5, seed=None, batch_sites: int = 400_000) -> np.ndarray:
+def cluster_counts(L: int, n_realisations: int, p: float = 0.5, seed=None, batch_sites: int = 400_000,
+                   largest: list | None = None) -> np.ndarray:
     """Cluster-size counts pooled over independent realisations of site percolation.
 
-    Returns ``counts`` of length ``L^2`` with ``counts[s-1]`` = number of clusters of size s.
+    Returns ``counts`` of length ``L^2`` with ``counts[s-1]`` = number of clusters of size s;
+    the largest cluster size of each realisation is appended to ``largest`` when given.
     """
     rng = np.random.default_rng(seed)
     n = L * L
@@ -42,7 +44,14 @@ def cluster_counts(L: int, n_realisations: int, p: float = 0.5, seed=None, batch
         i, j = (b[0] + offset)[keep], (b[1] + offset)[keep]
         graph = coo_matrix((np.ones(i.size, dtype=np.int8), (i, j)), shape=(m * n, m * n))
         _, labels = connected_components(graph, directed=False)
-        sizes = np.bincount(labels[occ.ravel()])
+        occupied = np.flatnonzero(occ)
+        sizes = np.bincount(labels[occupied])
+        if largest is not None:
+            realisation = np.zeros(sizes.size, dtype=np.int64)
+            realisation[labels[occupied]] = occupied // n
+            per_real = np.zeros(m, dtype=np.int64)
+            np.maximum.at(per_real, realisation, sizes)
+            largest.extend(per_real.tolist())
         counts += np.bincount(sizes[sizes > 0], minlength=n + 1)[1:]
         done += m
     return counts

@@ -6,7 +6,8 @@ For every (eta, N) of each dataset: tau from fcsweep.analysis.percolation.fit_fi
 on the pooled cluster_size_distribution (window, error, amplitude a, goodness of fit, flag),
 and the same estimator on exact site percolation of the triangular lattice with the same N
 (L = sqrt(N), periodic) at p = 1/2 (critical) and at p = rho_d of that point (the null
-model "defects = independent sites at density rho_d").  Then the first estimators of
+model "defects = independent sites at density rho_d"), with the mean largest-cluster
+fraction P_max of those samples beside the dataset's.  Then the first estimators of
 percolation_long.py (truncated pure power-law MLE and log-binned LSQ) on exact critical
 samples, to show their finite-size bias.  Exact samples come from tests/percolation_lattice.py
 (seeded; 2000 realisations at N = 1024, 8000 at N = 256, 500 at N = 4096).
@@ -39,10 +40,13 @@ def describe(fit):
 
 
 def exact(N, p, seed):
-    """FisherFit of exact triangular-lattice site percolation with N sites at occupation p."""
+    """FisherFit, counts and 'P_max = mean +- err' of exact triangular-lattice site percolation (N sites, p)."""
     L = int(round(np.sqrt(N)))
-    counts = cluster_counts(L, REALISATIONS[N], p=p, seed=seed)
-    return fit_fisher_exponent(counts, L * L), counts
+    big = []
+    counts = cluster_counts(L, REALISATIONS[N], p=p, seed=seed, largest=big)
+    big = np.array(big) / (L * L)
+    pmax = f"P_max = {big.mean():.3f} +- {big.std(ddof=1) / np.sqrt(big.size):.3f}"
+    return fit_fisher_exponent(counts, L * L), counts, pmax
 
 
 def main(paths):
@@ -52,19 +56,20 @@ def main(paths):
         ds = xr.open_dataset(path).squeeze("replicate", drop=True).squeeze("v0", drop=True)
         print(f"\n## {path}")
         for N in ds.N.values:
-            crit, _ = exact(int(N), 0.5, seed=int(N))
-            print(f"exact critical, N = {N}: {describe(crit)}")
+            crit, _, pmax = exact(int(N), 0.5, seed=int(N))
+            print(f"exact critical, N = {N}: {pmax}; {describe(crit)}")
             for eta in ds.eta.values:
                 s = ds.sel(eta=eta, N=N)
                 c = np.nan_to_num(s.cluster_size_distribution.values)[:int(N)]
                 rho = float(s.rho_d)
-                ref, _ = exact(int(N), rho, seed=int(N) + int(round(1e4 * rho)))
+                ref, _, pmax = exact(int(N), rho, seed=int(N) + int(round(1e4 * rho)))
                 print(f"N = {N} eta = {eta:g} rho_d = {rho:.3f} clusters = {int(c.sum())}:\n"
-                      f"    data:                      {describe(fit_fisher_exponent(c, int(N)))}\n"
-                      f"    exact at p = rho_d:        {describe(ref)}")
+                      f"    data:                      P_max = {float(s.largest_cluster_fraction):.3f}; "
+                      f"{describe(fit_fisher_exponent(c, int(N)))}\n"
+                      f"    exact at p = rho_d:        {pmax}; {describe(ref)}")
     print("\n## first estimators (percolation_long.py) on exact critical samples")
     for N in (1024, 4096):
-        _, counts = exact(N, 0.5, seed=N)
+        _, counts, _ = exact(N, 0.5, seed=N)
         sz = np.arange(1, N + 1)
         line = [f"N = {N}, {int(counts.sum())} clusters:"]
         for lo, hi in WINDOWS:
