@@ -18,7 +18,7 @@ import sys
 import numpy as np
 import xarray as xr
 
-from percolation_long import WINDOWS, lsq_tau, mle_tau
+from percolation_long import window_fits
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[2] / "tests"))
 from percolation_lattice import cluster_counts  # noqa: E402
@@ -70,13 +70,8 @@ def main(paths):
     print("\n## first estimators (percolation_long.py) on exact critical samples")
     for N in (1024, 4096):
         _, counts, _ = exact(N, 0.5, seed=N)
-        sz = np.arange(1, N + 1)
-        line = [f"N = {N}, {int(counts.sum())} clusters:"]
-        for lo, hi in WINDOWS:
-            tl, _ = lsq_tau(sz, counts, lo, hi)
-            tm, em, _ = mle_tau(sz, counts, lo, hi)
-            line.append(f"[{lo},{hi}] LSQ {tl:.2f} / MLE {tm:.2f} +- {em:.2f}")
-        print("  ".join(line))
+        print("  ".join([f"N = {N}, {int(counts.sum())} clusters, LSQ(bins) / MLE:"]
+                        + window_fits(np.arange(1, N + 1), counts)))
 
 
 if __name__ == "__main__":
