@@ -193,11 +193,11 @@ def _check_counts(counts, n_sites: int) -> np.ndarray:
         raise ValueError(f"counts must be 1-D (counts[s-1] = clusters of size s), got shape {c.shape}")
     if n_sites < 1:
         raise ValueError(f"n_sites must be >= 1, got {n_sites}")
-    if c.size > n_sites:
-        raise ValueError(f"counts has {c.size} sizes but n_sites is {n_sites}: a cluster cannot exceed n_sites")
     if not np.all(np.isfinite(c)) or np.any(c < 0):
         raise ValueError("counts must be finite and >= 0")
-    return c
+    if np.any(c[n_sites:] != 0):
+        raise ValueError(f"counts has clusters larger than n_sites = {n_sites}: a cluster cannot exceed n_sites")
+    return c[:n_sites]  # trailing zeros (a size axis shared with larger systems) are dropped
 
 
 def fit_fisher_exponent(counts, n_sites: int, *, s_min: int = S_MIN, s_max: int | None = None,
@@ -212,8 +212,8 @@ def fit_fisher_exponent(counts, n_sites: int, *, s_min: int = S_MIN, s_max: int 
     Parameters
     ----------
     counts : array_like, shape (S,)
-        ``counts[s-1]`` = number of clusters of size ``s`` pooled over frames, ``S <= n_sites``
-        (NaN is not allowed; missing sizes are zeros).
+        ``counts[s-1]`` = number of clusters of size ``s`` pooled over frames; entries beyond
+        ``n_sites`` must be zero (NaN is not allowed; missing sizes are zeros).
     n_sites : int
         Number of sites (cells) of one frame; sets the finite-size window.
     s_min : int, optional
@@ -238,7 +238,7 @@ def fit_fisher_exponent(counts, n_sites: int, *, s_min: int = S_MIN, s_max: int 
     Raises
     ------
     ValueError
-        For counts that are not 1-D, negative or non-finite, longer than ``n_sites``, or a
+        For counts that are not 1-D, negative or non-finite, non-zero beyond ``n_sites``, or a
         window or inefficiency out of range.
     """
     c_all = _check_counts(counts, n_sites)
@@ -296,7 +296,7 @@ def fisher_exponent(counts, n_sites: int, **kwargs) -> tuple[float, float]:
     Parameters
     ----------
     counts : array_like, shape (S,)
-        ``counts[s-1]`` = number of clusters of size ``s`` pooled over frames, ``S <= n_sites``.
+        ``counts[s-1]`` = number of clusters of size ``s`` pooled over frames (zero beyond ``n_sites``).
     n_sites : int
         Number of sites of one frame.
     **kwargs
