@@ -66,6 +66,16 @@ def mle_tau(sz, cs, smin, smax):
     return t, 1 / np.sqrt(n * var), int(n)
 
 
+def window_fits(sz, cs):
+    """'[s_min,s_max] LSQ(bins) / MLE+-err(n)' for each of WINDOWS."""
+    out = []
+    for lo, hi in WINDOWS:
+        tl, nb = lsq_tau(sz, cs, lo, hi)
+        tm, em, n = mle_tau(sz, cs, lo, hi)
+        out.append(f"[{lo},{hi}] {tl:.2f}({nb}b) / {tm:.2f}+-{em:.2f}(n={n})")
+    return out
+
+
 def per_frame(traj):
     """rho_d, P_max per frame and times from one trajectory.h5."""
     import h5py
@@ -107,11 +117,7 @@ def main(path, runs=None, out=None):
         for eta in ds.eta.values:
             cs = np.nan_to_num(ds.sel(eta=eta, N=N).cluster_size_distribution.values)
             line = [f"N={N} eta={eta:g} clusters={int(cs.sum())} s_max_seen={int(sz[cs > 0].max()) if cs.any() else 0}:"]
-            for lo, hi in WINDOWS:
-                tl, nb = lsq_tau(sz, cs, lo, hi)
-                tm, em, n = mle_tau(sz, cs, lo, hi)
-                line.append(f"[{lo},{hi}] {tl:.2f}({nb}b) / {tm:.2f}+-{em:.2f}(n={n})")
-            print("  ".join(line))
+            print("  ".join(line + window_fits(sz, cs)))
     series = {}
     if runs:
         import pathlib
