@@ -275,3 +275,25 @@ def test_phase_diagram_passes_the_cf_checker(sweep):
     report = json.loads(r.stdout)
     scored = report["cf:1.8"]
     assert scored["high_count"] == 0 and scored["medium_count"] == 0 and scored["low_count"] == 0, scored
+
+
+def test_fisher_exponent_per_point_pools_replicates():
+    """Two replicates of exact critical percolation (N = 1024, 1000 realisations each) in
+    a dataset: the point's tau pools both and is 187/91 within 2 sigma; a point without
+    defects says so."""
+    from percolation_lattice import cluster_counts
+
+    from fcsweep.analysis.aggregate import _fisher_exponents
+    from fcsweep.analysis.percolation import TAU_2D
+
+    c = np.stack([cluster_counts(32, 1000, p=0.5, seed=s) for s in (21, 22)])  # (replicate, size)
+    cs = np.zeros((2, 2, 1024))
+    cs[0, :, :c.shape[1]] = c[:, :1024]
+    ds = xr.Dataset({"cluster_size_distribution": (("eta", "replicate", "cluster_size"), cs)},
+                    coords={"eta": [0.03, 0.1], "replicate": [0, 1], "N": 1024,
+                            "cluster_size": np.arange(1, 1025, dtype=np.int32)})
+    ds = ds.expand_dims("N").transpose("eta", "N", "replicate", "cluster_size")
+    _fisher_exponents(ds)
+    crit = ds.sel(eta=0.03).squeeze()
+    assert abs(crit["tau_fisher"].item() - TAU_2D) < 2 * crit["tau_fisher_err"].item()
+    assert ds["tau_fisher_reason"].sel(eta=0.1).item() == "no defect clusters"

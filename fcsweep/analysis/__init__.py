@@ -7,7 +7,9 @@ diffusion  long-time diffusion coefficient D_s, D0 = v0^2 / (2 Dr) and D_eff = D
 shapes     shape index q per cell and frame, its mean and histogram
 voronoi    periodic Voronoi neighbours (freud), defect cells, defect clusters
 order      hexatic order psi6, |Psi6|, G6(r) and the translational cut G_r(dx, 0)
-phase      solid / fluid / soft-fluid and percolation labels
+phase      solid / fluid / soft-fluid and percolation labels, with confidence or undetermined
+stats      time averages of correlated series with honest errors; replicate reduction
+percolation  Fisher exponent of defect cluster sizes, calibrated on exact percolation
 trajectory reading one H5MD trajectory (file access, used by the pipeline only)
 pipeline   analyze_run / analyze_sweep (files)
 aggregate  build_dataset / aggregate_sweep: per-run files -> phase_diagram.nc

@@ -37,6 +37,7 @@ import xarray as xr
 from fcsweep import __version__
 from fcsweep.analysis.phase import (MIN_CONFIDENCE, PERCOLATION_FLAGS, PHASE_FLAGS, classify_percolation,
                                     classify_phase, flag_attrs)
+from fcsweep.analysis.percolation import fisher_observables
 from fcsweep.analysis.stats import combine
 from fcsweep.analysis.pipeline import (ANALYSIS_ERROR_FILE, ANALYSIS_FILE, CURVES, DATASET_FILE, _read_status,
                                       read_analysis)
@@ -104,6 +105,9 @@ META = {
     "percolated_point": ("percolation label of the replicate mean of rho_d", "1"),
     "percolated_point_confidence": ("probability of percolated_point", "1"),
     "seed": ("random seed of the run (decimal string)", ""),
+    "tau_fisher": ("Fisher exponent of the defect cluster sizes (replicates pooled; critical 187/91)", "1"),
+    "tau_fisher_err": ("1-sigma error of tau_fisher", "1"),
+    "tau_fisher_reason": ("why tau_fisher is undetermined or flagged (empty: a usable fit)", ""),
     "status": ("run and analysis status", "1"),
     "n_frames": ("frames after the transient used for the MSD", "1"),
     "n_structure_frames": ("frames used for Voronoi, defect and order statistics", "1"),
@@ -120,7 +124,7 @@ SCALAR_VARS = ("D_eff", "D_eff_err", "D_eff_err_time", "D_eff_err_cells", "D_eff
 #: Observables reduced over replicates (``<name>_rmean``, ``_rmean_err``, ``_rchi2``).
 REPLICATE_VARS = ("D_eff", "q_mean", "q_frac_above", "rho_d", "largest_cluster_fraction", "psi6")
 #: Per-run strings, written as CF character arrays.
-STRING_VARS = ("run_id", "seed", "phase_reason", "percolated_reason")
+STRING_VARS = ("run_id", "seed", "phase_reason", "percolated_reason", "tau_fisher_reason")
 
 
 def _key(x):
@@ -349,6 +353,33 @@ def _reduce_replicates(ds: xr.Dataset, settings) -> None:
     ds["phase_point_confidence"] = (dims, pconf, _attrs("phase_point_confidence"))
     ds["percolated_point"] = (dims, perc, {**_attrs("percolated_point"), **flag_attrs(PERCOLATION_FLAGS)})
     ds["percolated_point_confidence"] = (dims, cconf, _attrs("percolated_point_confidence"))
+    _fisher_exponents(ds)
+
+
+def _fisher_exponents(ds: xr.Dataset) -> None:
+    """``tau_fisher``, its error and reason per point from the pooled cluster sizes (in place)."""
+    counts = ds["cluster_size_distribution"].fillna(0).sum("replicate")
+    dims = list(counts.dims[:-1])
+    size = counts.sizes["cluster_size"]
+    tau = np.full(counts.shape[:-1], np.nan)
+    err = np.full(counts.shape[:-1], np.nan)
+    why = np.full(counts.shape[:-1], "", dtype=object)
+    Ns = counts["N"].broadcast_like(counts.isel(cluster_size=0)).values
+    sizes = counts["cluster_size"].values
+    for idx in np.ndindex(tau.shape):
+        c = np.zeros(int(sizes.max()) if size else 0)
+        c[sizes - 1] = counts.values[idx]
+        if not np.any(c > 0):
+            why[idx] = "no defect clusters"
+            continue
+        try:
+            r = fisher_observables(c, int(Ns[idx]))
+        except ValueError as exc:
+            why[idx] = str(exc)
+            continue
+        tau[idx], err[idx], why[idx] = r["tau_fisher"], r["tau_fisher_err"], r["tau_fisher_reason"]
+    for name, arr in (("tau_fisher", tau), ("tau_fisher_err", err), ("tau_fisher_reason", why)):
+        ds[name] = (dims, arr, _attrs(name))
 
 
 def write_dataset(ds: xr.Dataset, path) -> Path:
