@@ -202,7 +202,8 @@ def test_failed_run_isolated_then_retry_failed(done_sweep, tmp_path, monkeypatch
     table = CliRunner().invoke(cli, ["status", str(path), "-o", str(cfg.output)])
     assert table.exit_code == 0
     assert f"{bad}  failed" in table.output and "reason: RuntimeError: injected failure" in table.output
-    assert table.output.strip().splitlines()[-1] == "4 runs: 3 done, 0 running, 0 interrupted, 1 failed, 0 corrupt, 0 pending"
+    assert table.output.strip().splitlines()[-1] == ("4 runs: 3 done, 0 running, 0 interrupted, 1 failed, "
+                                                     "0 corrupt, 0 pending")
 
     monkeypatch.delenv("FCSWEEP_FAIL_RUN_IDS")
     again = CliRunner().invoke(cli, args)  # a plain rerun does not retry failed runs
