@@ -297,3 +297,10 @@ def test_fisher_exponent_per_point_pools_replicates():
     crit = ds.sel(eta=0.03).squeeze()
     assert abs(crit["tau_fisher"].item() - TAU_2D) < 2 * crit["tau_fisher_err"].item()
     assert ds["tau_fisher_reason"].sel(eta=0.1).item() == "no defect clusters"
+
+
+def test_replicate_error_check_reports_the_median_chi2():
+    from fcsweep.analysis.aggregate import replicate_error_check
+
+    ds = xr.Dataset({"D_eff_rchi2": (("eta",), [0.8, 1.2, np.nan, 5.0])})
+    assert replicate_error_check(ds) == {"D_eff": (1.2, 3)}

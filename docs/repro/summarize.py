@@ -1,9 +1,10 @@
 """Tables and fits for docs/reproduction.md from fcsweep phase_diagram.nc files.
 
 Usage: python summarize.py PHASE_DIAGRAM.nc [...]
-Prints, per state point: D_eff +- err, <q>, fraction q > 3.81, rho_d +- err, P_max,
-|Psi6|, phase label; then power-law fits (cluster sizes, G6, G_r envelope) and the
-number of peaks of the q histogram.
+Prints, per state point: D_eff +- err (with the time- and cell-block parts and the
+settling check), <q> +- err, fraction q > 3.81, rho_d +- err, P_max +- err, |Psi6| +- err,
+phase and percolation labels with their confidence and reason, tau_fisher; then
+power-law fits (G6, G_r envelope) and the peaks of the q histogram.
 """
 import sys
 
@@ -18,22 +19,6 @@ def slope(x, y):
         return np.nan, 0
     p = np.polyfit(np.log(x[m]), np.log(y[m]), 1)
     return p[0], int(m.sum())
-
-
-def logbinned_tau(sz, cs):
-    """Slope of the log-binned cluster-size density n(s) (clusters per unit size).
-
-    Bins [2^k, 2^(k+1)) from s = 2; only bins with at least 3 clusters are fitted.
-    """
-    edges = 2 ** np.arange(1, 16)
-    x, y = [], []
-    for lo, hi in zip(edges[:-1], edges[1:]):
-        m = (sz >= lo) & (sz < hi)
-        c = cs[m].sum()
-        if c >= 3:
-            x.append(np.sqrt(lo * (hi - 1)))
-            y.append(c / (hi - lo))
-    return slope(np.array(x), np.array(y))
 
 
 def shell_slope(dx, gr, a=(2 * np.pi / (0.95 * np.sqrt(3))) ** 0.5):
@@ -69,23 +54,24 @@ def main(paths):
         for k in range(st.sizes["pt"]):
             s = st.isel(pt=k)
             lab = {d: float(s[d]) for d in ds["D_eff"].dims if d != "replicate"}
+            f = (lambda v: float(s[v]))
             print(
                 " ".join(f"{d}={v:g}" for d, v in lab.items()),
-                f"| D_eff={float(s.D_eff):.3g}+-{float(s.D_eff_err):.2g}"
-                f" q={float(s.q_mean):.4f} q>3.81={float(s.q_frac_above):.3f}"
-                f" rho_d={float(s.rho_d):.3f}+-{float(s.rho_d_err):.3f}"
-                f" Pmax={float(s.largest_cluster_fraction):.3f}+-{float(s.largest_cluster_fraction_err):.3f}"
-                f" psi6={float(s.psi6):.3f} phase={int(s.phase)} perc={int(s.percolated)}",
+                f"| D_eff={f('D_eff'):.3g}+-{f('D_eff_err'):.2g} (time {f('D_eff_err_time'):.2g},"
+                f" cells {f('D_eff_err_cells'):.2g}, late {f('D_eff_late'):.3g}, B={f('n_time_blocks'):.0f})"
+                f" q={f('q_mean'):.4f}+-{f('q_mean_err'):.4f} q>3.81={f('q_frac_above'):.3f}"
+                f" rho_d={f('rho_d'):.3f}+-{f('rho_d_err'):.3f}"
+                f" Pmax={f('largest_cluster_fraction'):.3f}+-{f('largest_cluster_fraction_err'):.3f}"
+                f" psi6={f('psi6'):.3f}+-{f('psi6_err'):.3f}",
+                f"| phase={int(s.phase)} P={f('phase_confidence'):.3f} ({s.phase_reason.item()})"
+                f" perc={int(s.percolated)} P={f('percolated_confidence'):.3f}"
+                f" tau={f('tau_fisher'):.2f}+-{f('tau_fisher_err'):.2f}",
                 f"| q peaks {peaks(ds.q_bin.values, s.q_hist.values)}",
             )
-            cs = np.nan_to_num(s.cluster_size_distribution.values)
-            sz = ds.cluster_size.values
-            tau, npt = logbinned_tau(sz, cs)
             r = ds.r.values
             g6s, _ = slope(r[(r >= 2) & (r <= 6)], np.abs(s.G6.values[(r >= 2) & (r <= 6)]))
             grs, ngr = shell_slope(ds.dx.values, s.Gr.values)
-            print(f"    cluster n(s) log-binned slope (s >= 2, bins with >= 3 clusters): {tau:.2f} ({npt} bins); "
-                  f"G6 slope r=2..6: {g6s:.3f}; G_r shell-peak slope: {grs:.2f} ({ngr} shells)")
+            print(f"    G6 slope r=2..6: {g6s:.3f}; G_r shell-peak slope: {grs:.2f} ({ngr} shells)")
 
 
 if __name__ == "__main__":

@@ -399,6 +399,24 @@ def write_dataset(ds: xr.Dataset, path) -> Path:
     return path
 
 
+def replicate_error_check(ds: xr.Dataset) -> dict:
+    """Median reduced chi-square of the replicates per observable: ``{name: (median, points)}``.
+
+    Near 1 the per-run errors describe the replicate scatter; well above 1 they are too
+    small (the point errors ``<name>_rmean_err`` are scaled up for it already).
+    Observables without two replicates at any point are left out.
+    """
+    out = {}
+    for v in REPLICATE_VARS:
+        x = ds.get(f"{v}_rchi2")
+        if x is None:
+            continue
+        vals = x.values[np.isfinite(x.values)]
+        if vals.size:
+            out[v] = (float(np.median(vals)), int(vals.size))
+    return out
+
+
 def unanalysed_runs(ds: xr.Dataset) -> list[tuple[str, str]]:
     """``(run_id, status word)`` of finished runs without a usable analysis in ``ds``."""
     st = ds["status"].values.ravel()
