@@ -1,11 +1,14 @@
-"""Command line: ``fcsweep simulate | status | list-runs | validate | bench | analyze | aggregate | plot``.
+"""Command line, in the order of the work: ``fcsweep validate | bench | simulate | status |
+analyze | aggregate | plot | movie``, and the helpers ``list-runs`` and ``compile``.
 
 Every command takes an optional CONFIG (a sweep YAML file); without one it uses the
 built-in demo sweep (``fcsweep/data/smoke.yaml``, identical to ``configs/smoke.yaml``),
-which writes to ``./fcsweep-demo``.
+which writes to ``./fcsweep-demo``.  Every command that reads or writes a sweep prints
+the output directory it resolved.
 
-Exit codes: 0 success; 1 some run failed (the others completed); 2 invalid config or
-usage (nothing was written).
+Exit codes: 0 success; 1 some run failed (the others completed), or a results command
+(status, analyze, aggregate, plot, movie) found nothing to work on in the output
+directory (nothing was written); 2 invalid config or usage (nothing was written).
 """
 
 from __future__ import annotations
@@ -55,10 +58,62 @@ def _load(config: str | None, output: str | None = None, *, to_run: bool = False
     return cfg
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+#: Order of the commands in ``--help``: the order of the work, then the helpers.
+COMMAND_ORDER = ("validate", "bench", "simulate", "status", "analyze", "aggregate", "plot", "movie",
+                 "list-runs", "compile")
+
+
+class WorkflowGroup(click.Group):
+    """A group that lists its commands in :data:`COMMAND_ORDER`, not alphabetically."""
+
+    def list_commands(self, ctx):
+        rank = {name: i for i, name in enumerate(COMMAND_ORDER)}
+        return sorted(self.commands, key=lambda n: (rank.get(n, len(rank)), n))
+
+
+def _say(msg: str) -> None:
+    click.echo(f"fcsweep: {msg}", err=True)
+
+
+def _announce(cfg: SweepConfig) -> Path:
+    """Print and return the resolved output directory of ``cfg``."""
+    out = Path(cfg.output).resolve()
+    _say(f"output directory {out}")
+    return out
+
+
+def _nothing(msg: str) -> None:
+    """A results command found nothing to work on: say so and exit 1 (nothing written)."""
+    _say(msg)
+    sys.exit(1)
+
+
+def _config_arg(config: str | None, output: str | None) -> str:
+    """How the user named the sweep, for advice lines (``configs/x.yaml -o out``)."""
+    return " ".join(x for x in (config or "", f"-o {output}" if output else "") if x)
+
+
+def _wrong_dir_hint(config, output) -> str:
+    if config or output:
+        return "is this the config (and -o) that wrote the sweep?"
+    return "without CONFIG every command uses the built-in demo in ./fcsweep-demo; give your sweep's config"
+
+
+@click.group(cls=WorkflowGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(package_name="fcsweep")
 def cli() -> None:
-    """Simulate and sweep the Fourier contour cell model of active deformable cells."""
+    """Simulate and sweep the Fourier contour cell model of active deformable cells.
+
+    \b
+    A sweep, step by step (without CONFIG: the built-in demo, into ./fcsweep-demo):
+      fcsweep validate CONFIG     check the config, count the runs
+      fcsweep bench CONFIG        time the step here, estimate the sweep's cost
+      fcsweep simulate CONFIG     compute the runs (--dry-run: what it would do)
+      fcsweep status CONFIG       runs done / running / failed, analysed or not
+      fcsweep analyze CONFIG      observables of every finished run
+      fcsweep aggregate CONFIG    one phase_diagram.nc
+      fcsweep plot CONFIG         figures; `fcsweep movie RUN CONFIG` for a movie
+    """
 
 
 @cli.command()
@@ -78,11 +133,15 @@ def cli() -> None:
 @click.option("--log-every", type=click.FloatRange(min=0), default=30.0, show_default=True,
               help="Seconds between progress lines when stderr is not a terminal.")
 @click.option("--quiet", "-q", is_flag=True, help="No progress output; only the summary.")
+@click.option("--dry-run", "-n", is_flag=True,
+              help="Say which runs would start, resume or be skipped, with the estimated CPU and wall "
+                   "time; write nothing.")
 def simulate(config, output, workers, executor, scheduler, task_index, retry_failed, force,
-             lock_timeout, log_every, quiet):
+             lock_timeout, log_every, quiet, dry_run):
     """Compute the runs of a sweep (skips done runs, resumes interrupted ones).
 
-    Without CONFIG, runs the built-in demo sweep into ./fcsweep-demo.
+    Without CONFIG, runs the built-in demo sweep into ./fcsweep-demo.  The first use
+    compiles the numba kernels (minutes; cached afterwards, see `fcsweep compile`).
     """
     from fcsweep.io.locks import DEFAULT_STALE_AFTER
     from fcsweep.sweep.executors import run_sweep, select_runs
@@ -108,14 +167,24 @@ def simulate(config, output, workers, executor, scheduler, task_index, retry_fai
                        f"using {processes}", err=True)
             workers = processes
     src = config or f"built-in demo ({builtin_demo_path().name})"
-    click.echo(f"fcsweep: {len(specs)} run(s) of {src} -> {cfg.output} [{executor}"
+    out_dir = Path(cfg.output).resolve()
+    stale_after = lock_timeout or DEFAULT_STALE_AFTER
+    if dry_run:
+        _dry_run(cfg, specs, src, out_dir, workers if executor == "process" else 1, force, retry_failed,
+                 stale_after, _config_arg(config, output))
+        return
+    click.echo(f"fcsweep: {len(specs)} run(s) of {src} -> {out_dir} [{executor}"
                f"{', ' + str(workers) + ' workers' if executor == 'process' else ''}]", err=True)
+    if specs and executor != "dask":  # Dask workers compile (or load) on their own hosts
+        from fcsweep.sweep.warmup import compile_kernels
+
+        compile_kernels(None if quiet else _say)
     progress = Progress(len(specs), log_every=log_every, enabled=not quiet)
     previous = _exit_on_sigterm()
     try:
         outcomes = run_sweep(cfg, specs, executor=executor, workers=workers, scheduler=scheduler,
                              progress=progress, force=force, retry_failed=retry_failed,
-                             stale_after=lock_timeout or DEFAULT_STALE_AFTER)
+                             stale_after=stale_after)
     except (OSError, TimeoutError) as exc:
         if executor != "dask":
             raise
@@ -133,8 +202,68 @@ def simulate(config, output, workers, executor, scheduler, task_index, retry_fai
         if o.outcome == "failed":
             click.echo(f"  failed: run {o.index} {o.run_id}: {o.message}", err=True)
     if counts["failed"]:
-        click.echo("fcsweep: some runs failed; fix the cause and rerun with --retry-failed", err=True)
+        for line in _failure_advice(outcomes, _config_arg(config, output)):
+            _say(line)
         sys.exit(1)
+
+
+#: Part of the runner's message for a run directory written with other run settings.
+_CONFLICT = "computed with other run settings"
+
+
+def _failure_advice(outcomes, arg: str) -> list[str]:
+    """Advice that fits the failures: other settings (--force / -o) or errors (--retry-failed)."""
+    cmd = f"fcsweep simulate {arg}".rstrip()
+    failed = [o for o in outcomes if o.outcome == "failed"]
+    conflicts = [o for o in failed if _CONFLICT in o.message]
+    out = []
+    if conflicts:
+        out.append(f"{len(conflicts)} run(s) were computed with other run settings than the config has now: "
+                   f"`{cmd} --force` recomputes them, or give another output directory (-o)")
+    if len(conflicts) < len(failed):
+        out.append(f"{len(failed) - len(conflicts)} run(s) failed: fix the cause and rerun with "
+                   f"`{cmd} --retry-failed`")
+    return out
+
+
+def _dry_run(cfg, specs, src, out_dir, processes, force, retry_failed, stale_after, arg) -> None:
+    """Print what `simulate` would do and what it would cost; write nothing."""
+    from fcsweep.sweep.bench import estimate_costs, wall_time
+    from fcsweep.sweep.plan import ACTIONS, plan_runs
+    from fcsweep.sweep.progress import format_duration
+
+    plans = plan_runs(cfg, specs, force=force, retry_failed=retry_failed, stale_after=stale_after)
+    click.echo(f"dry run: {len(specs)} run(s) of {src} -> {out_dir} (nothing is written)")
+    work = [p for p in plans if p.steps_left > 0]
+    costs, source = estimate_costs(cfg, work, log=_say) if work else ([], "")
+    cost = {p.spec.index: c for p, c in zip(work, costs)}
+    click.echo(f"{'idx':>4}  {'run_id':12}  {'action':8}  {'from step':>9}  {'steps':>9}  {'est. CPU':>9}  parameters")
+    for p in plans:
+        est = format_duration(cost[p.spec.index]) if p.spec.index in cost else ""
+        click.echo(f"{p.spec.index:>4}  {p.spec.run_id:12}  {p.action:8}  {p.from_step:>9}  {p.steps_left:>9}  "
+                   f"{est:>9}  {p.spec.label()}" + (f"  ({p.note})" if p.note else ""))
+    n = {a: sum(p.action == a for p in plans) for a in ACTIONS}
+    click.echo(", ".join(f"{n[a]} to {a}" if a in ("start", "resume", "skip") else f"{n[a]} {a}"
+                         for a in ACTIONS if n[a] or a in ("start", "resume", "skip")))
+    if work:
+        cpu = sum(costs)
+        click.echo(f"estimated {format_duration(cpu)} of CPU, about {format_duration(wall_time(costs, processes))} "
+                   f"wall on {processes} process(es) [{source}]")
+    for line in _plan_advice(n, arg):
+        click.echo(line)
+
+
+def _plan_advice(n: dict, arg: str) -> list[str]:
+    cmd = f"fcsweep simulate {arg}".rstrip()
+    out = []
+    if n["blocked"]:
+        out.append(f"{n['blocked']} run(s) hold results of other run settings: `{cmd} --force` recomputes them, "
+                   "or give another output directory (-o)")
+    if n["failed"]:
+        out.append(f"{n['failed']} run(s) failed earlier and are not rerun: `{cmd} --retry-failed`")
+    if n["locked"]:
+        out.append(f"{n['locked']} run(s) are being computed by another process")
+    return out
 
 
 @cli.command()
@@ -142,16 +271,24 @@ def simulate(config, output, workers, executor, scheduler, task_index, retry_fai
 @OUTPUT_OPT
 @click.option("--json", "as_json", is_flag=True, help="Machine-readable output.")
 def status(config, output, as_json):
-    """Table of runs: done / running / interrupted / failed / pending, with progress."""
-    from fcsweep.sweep.status import collect_status, format_status
+    """Table of runs: done / running / interrupted / failed / pending, with progress,
+    whether each is analysed (yes / stale / no), and what to do next."""
+    from fcsweep.sweep.status import advice, collect_status, format_status
 
     cfg = _load(config, output)
+    out = _announce(cfg)
     rows = collect_status(cfg)
+    started = any(r["state"] != "pending" or r["steps_done"] for r in rows)
     if as_json:
         click.echo(json.dumps(rows, indent=1))
-    else:
-        click.echo(f"sweep {cfg.output}")
+    elif started:
+        click.echo(f"sweep {out}")
         click.echo(format_status(rows))
+        for line in advice(rows, _config_arg(config, output)):
+            click.echo(f"next: {line}")
+    if not started:
+        _nothing(f"nothing simulated in {out}: all {len(rows)} runs are pending "
+                 f"({_wrong_dir_hint(config, output)})")
 
 
 @cli.command("list-runs")
@@ -173,16 +310,6 @@ def list_runs(config, count, as_json):
         click.echo(f"{s.index:>5}  {s.run_id}  {s.label()}")
 
 
-def _duration(seconds: float) -> str:
-    if seconds < 10:
-        return f"{seconds:.1f} s"
-    if seconds < 120:
-        return f"{seconds:.0f} s"
-    if seconds < 7200:
-        return f"{seconds / 60:.0f} min"
-    return f"{seconds / 3600:.1f} h"
-
-
 @cli.command()
 @CONFIG_ARG
 @click.option("--compare", "-c", multiple=True, type=click.Choice(["binary", "linear", "arc"]),
@@ -199,16 +326,19 @@ def _duration(seconds: float) -> str:
 def bench(config, compare, steps, warm, threads, workers, as_json):
     """Time the step on this machine for each cost setting of a sweep and estimate the
     sweep's CPU and wall time (without CONFIG: the built-in demo)."""
-    from fcsweep.sweep.bench import bench_sweep
+    from fcsweep.sweep.bench import bench_sweep, sweep_seconds, wall_time
     from fcsweep.sweep.layout import worker_layout
+    from fcsweep.sweep.progress import format_duration
+    from fcsweep.sweep.warmup import compile_kernels
 
     cfg = _load(config, to_run=True)
-    log = None if as_json else (lambda msg: click.echo(f"fcsweep: {msg}", err=True))
+    log = None if as_json else _say
+    compile_kernels(log)
     rows = bench_sweep(cfg, steps=steps, warm=warm, quadratures=list(compare) or None, threads=threads, log=log)
-    own = [r for r in rows if r.own]  # the sweep's time: its own rules, not the --compare ones
-    cpu = sum(r.cpu_seconds for r in own)
+    per_run = sweep_seconds(cfg, [r for r in rows if r.own])  # its own rules, not the --compare ones
+    cpu = sum(per_run)
     processes, _ = worker_layout(workers)
-    wall = max(cpu / processes, max(r.cpu_seconds / r.runs for r in own))  # no run is split
+    wall = wall_time(per_run, processes)
     if as_json:
         click.echo(json.dumps({"rows": [{**r.setting, "runs": r.runs, "cell_steps": r.cell_steps,
                                          "cell_steps_per_s": r.rate, "cpu_seconds": r.cpu_seconds} for r in rows],
@@ -220,10 +350,10 @@ def bench(config, compare, steps, warm, threads, workers, as_json):
     for r in rows:
         st = r.setting
         click.echo(f"{st['N']:>6} {st['modes']:>5} {st['contour_points']:>4} {st['quadrature']:>10} {r.runs:>5} "
-                   f"{r.rate:>13.3e} {1e6 / r.rate:>12.3f} {_duration(r.cpu_seconds):>23}")
+                   f"{r.rate:>13.3e} {1e6 / r.rate:>12.3f} {format_duration(r.cpu_seconds):>23}")
     click.echo(f"sweep ({len(cfg.runs())} runs, {cfg.run.steps} steps each, its own quadratures): "
-               f"{_duration(cpu)} of CPU at {threads} thread(s) per run; about {_duration(wall)} "
-               f"wall on {processes} process(es)")
+               f"{format_duration(cpu)} of CPU at {threads} thread(s) per run, writing included; "
+               f"about {format_duration(wall)} wall on {processes} process(es)")
 
 
 @cli.command()
@@ -233,7 +363,19 @@ def validate(config):
     cfg = _load(config, to_run=True)
     click.echo(f"{config}: OK, {len(cfg.runs())} runs "
                f"({' x '.join(f'{k}[{len(v)}]' for k, v in cfg.grid.items())} x {cfg.replicates} replicate(s)), "
-               f"{cfg.run.steps} steps each, output {cfg.output}")
+               f"{cfg.run.steps} steps each, output {Path(cfg.output).resolve()}")
+
+
+@cli.command("compile")
+def compile_cmd():
+    """Compile the numba kernels now (once per fcsweep version; `simulate` does it
+    otherwise on first use) and say where they are cached."""
+    from fcsweep.sweep.warmup import cache_dir, compile_kernels, kernels_cached
+
+    was = kernels_cached()
+    seconds = compile_kernels(_say)
+    state = "already compiled; loaded" if was else "compiled"
+    click.echo(f"kernels {state} in {seconds:.1f} s; cache {cache_dir()}")
 
 
 @cli.command()
@@ -244,8 +386,14 @@ def validate(config):
 def analyze(config, output, workers, force):
     """Analyse every finished run (writes analysis.h5 beside each trajectory)."""
     from fcsweep.analysis.pipeline import analyze_sweep
+    from fcsweep.sweep.status import collect_status, summary_line
 
     cfg = _load(config, output)
+    out = _announce(cfg)
+    rows = collect_status(cfg)
+    if not any(r["state"] == "done" for r in rows):
+        _nothing(f"nothing to analyse in {out}: no run is done ({summary_line(rows)}; "
+                 f"{_wrong_dir_hint(config, output)})")
     results = analyze_sweep(cfg, workers=workers, force=force)
     failed = 0
     for run_id, st, msg in results:
@@ -253,6 +401,13 @@ def analyze(config, output, workers, force):
         failed += st == "failed"
     if failed:
         sys.exit(1)
+
+
+def _analysed(cfg) -> int:
+    """Number of done runs with an analysis.h5 (up to date or stale)."""
+    from fcsweep.sweep.status import collect_status
+
+    return sum(r["analysis"] in ("yes", "stale") for r in collect_status(cfg))
 
 
 @cli.command()
@@ -263,6 +418,10 @@ def aggregate(config, output):
     from fcsweep.analysis.aggregate import aggregate_sweep
 
     cfg = _load(config, output)
+    out = _announce(cfg)
+    if not _analysed(cfg):
+        _nothing(f"nothing to aggregate in {out}: no run is analysed (`fcsweep analyze` first; "
+                 f"{_wrong_dir_hint(config, output)})")
     click.echo(str(aggregate_sweep(cfg)))
 
 
@@ -273,12 +432,72 @@ def aggregate(config, output):
 @click.option("--frame", type=int, default=-1, show_default=True, help="Frame for snapshot plots.")
 @click.option("--outdir", type=click.Path(file_okay=False), default=None, help="Where figures go.")
 def plot(config, output, run, frame, outdir):
-    """Figures of the sweep (phase diagram) or of one run."""
-    from fcsweep.analysis.figures import plot_sweep
+    """Figures of the sweep (phase diagram and companions) or a snapshot of one run."""
+    from fcsweep.analysis.figures import NothingToPlot, plot_sweep
+    from fcsweep.analysis.pipeline import DATASET_FILE
 
     cfg = _load(config, output)
-    for p in plot_sweep(cfg, run=run, frame=frame, outdir=Path(outdir) if outdir else None):
+    out = _announce(cfg)
+    if run is not None:
+        _trajectory_or_exit(cfg, run, out, config, output)
+    elif not (out / DATASET_FILE).exists() and not _analysed(cfg):
+        _nothing(f"nothing to plot in {out}: no phase_diagram.nc and no analysed run "
+                 f"({_wrong_dir_hint(config, output)})")
+    try:
+        paths = plot_sweep(cfg, run=run, frame=frame, outdir=Path(outdir) if outdir else None)
+    except NothingToPlot as exc:
+        _nothing(str(exc))
+    for p in paths:
         click.echo(str(p))
+
+
+def _trajectory_or_exit(cfg, run, out, config, output) -> Path:
+    """The finished trajectory of run ``run``; exit 2 for an unknown run, 1 if not done."""
+    from fcsweep.analysis.figures import run_trajectory
+
+    try:
+        traj = run_trajectory(cfg, run)
+    except ValueError as exc:
+        _say(str(exc))
+        sys.exit(2)
+    if not traj.exists():
+        _nothing(f"run {run} has no finished trajectory in {out} ({traj.parent.name}; "
+                 f"{_wrong_dir_hint(config, output)})")
+    return traj
+
+
+@cli.command()
+@click.argument("run")
+@CONFIG_ARG
+@OUTPUT_OPT
+@click.option("--fps", type=click.IntRange(min=1, max=120), default=10, show_default=True,
+              help="Movie frames per second.")
+@click.option("--every", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Use every k-th recorded frame.")
+@click.option("--dpi", type=click.IntRange(min=50, max=600), default=120, show_default=True,
+              help="Resolution of the rendered frames.")
+@click.option("--out", "out_file", type=click.Path(dir_okay=False), default=None,
+              help="Movie file [<run directory>/movie.mp4].")
+def movie(run, config, output, fps, every, dpi, out_file):
+    """MP4 movie of one run: contours coloured by q, defects marked, with a progress bar.
+
+    RUN is a run id or index of the sweep CONFIG (default: the built-in demo), or the
+    path of a trajectory.h5.  Needs the `movie` extra: pip install 'fcsweep[movie]'.
+    """
+    from fcsweep.analysis.figures import movie_run
+
+    if run.endswith(".h5") and Path(run).is_file():
+        traj = Path(run)
+    else:
+        cfg = _load(config, output)
+        out = _announce(cfg)
+        traj = _trajectory_or_exit(cfg, run, out, config, output)
+    try:
+        path = movie_run(traj, out_file, fps=fps, every=every, dpi=dpi)
+    except ImportError as exc:
+        _say(str(exc))
+        sys.exit(2)
+    click.echo(str(path))
 
 
 def main() -> None:

@@ -136,7 +136,7 @@ def run_sweep(
             else:
                 o = run_one(cfg, spec, force=force, stale_after=stale_after,
                             progress=lambda s, step, n: progress.update(s.run_id, s.label(), step, n))
-            progress.run_finished(spec.run_id, _describe(o, spec))
+            progress.run_finished(spec.run_id, _describe(o, spec), computed=o.wall_seconds > 0)
             out.append(o)
         return out
     if executor == "process":
@@ -186,7 +186,7 @@ def _collect(cfg, specs, futs, progress: Progress, width: int, *, done, result) 
                 except Exception as exc:  # noqa: BLE001 - worker died (killed, OOM, ...)
                     o = RunOutcome(spec.index, spec.run_id, "failed", f"worker error: {type(exc).__name__}: {exc}")
                 outcomes[i] = o
-                progress.run_finished(spec.run_id, _describe(o, spec))
+                progress.run_finished(spec.run_id, _describe(o, spec), computed=o.wall_seconds > 0)
             else:
                 still.append(i)
         pending = still

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from fcsweep import plots
+from fcsweep.analysis import figures as plots
 from fcsweep.model.lattice import hexagonal_lattice
 
 
