@@ -175,7 +175,7 @@ def simulate(config, output, workers, executor, scheduler, task_index, retry_fai
         return
     click.echo(f"fcsweep: {len(specs)} run(s) of {src} -> {out_dir} [{executor}"
                f"{', ' + str(workers) + ' workers' if executor == 'process' else ''}]", err=True)
-    if specs and executor != "dask":  # Dask workers compile (or load) on their own hosts
+    if executor != "dask" and _any_to_compute(cfg, specs, force):  # Dask workers compile on their hosts
         from fcsweep.sweep.warmup import compile_kernels
 
         compile_kernels(None if quiet else _say)
@@ -207,6 +207,14 @@ def simulate(config, output, workers, executor, scheduler, task_index, retry_fai
         sys.exit(1)
 
 
+def _any_to_compute(cfg, specs, force: bool) -> bool:
+    """Whether some selected run is not done yet (then the kernels are needed)."""
+    from fcsweep.io.status import read_status
+
+    return bool(specs) and (force or any((read_status(cfg.run_dir(s.run_id)) or {}).get("status") != "done"
+                                         for s in specs))
+
+
 #: Part of the runner's message for a run directory written with other run settings.
 _CONFLICT = "computed with other run settings"
 
@@ -228,7 +236,7 @@ def _failure_advice(outcomes, arg: str) -> list[str]:
 
 def _dry_run(cfg, specs, src, out_dir, processes, force, retry_failed, stale_after, arg) -> None:
     """Print what `simulate` would do and what it would cost; write nothing."""
-    from fcsweep.sweep.bench import estimate_costs, wall_time
+    from fcsweep.sweep.bench import STARTUP_CPU_S, STARTUP_S, estimate_costs, wall_time
     from fcsweep.sweep.plan import ACTIONS, plan_runs
     from fcsweep.sweep.progress import format_duration
 
@@ -237,18 +245,20 @@ def _dry_run(cfg, specs, src, out_dir, processes, force, retry_failed, stale_aft
     work = [p for p in plans if p.steps_left > 0]
     costs, source = estimate_costs(cfg, work, log=_say) if work else ([], "")
     cost = {p.spec.index: c for p, c in zip(work, costs)}
-    click.echo(f"{'idx':>4}  {'run_id':12}  {'action':8}  {'from step':>9}  {'steps':>9}  {'est. CPU':>9}  parameters")
+    click.echo(f"{'idx':>4}  {'run_id':12}  {'action':8}  {'from step':>9}  {'steps':>9}  {'est. wall':>9}  "
+               "parameters")
     for p in plans:
-        est = format_duration(cost[p.spec.index]) if p.spec.index in cost else ""
+        est = format_duration(cost[p.spec.index][1]) if p.spec.index in cost else ""
         click.echo(f"{p.spec.index:>4}  {p.spec.run_id:12}  {p.action:8}  {p.from_step:>9}  {p.steps_left:>9}  "
                    f"{est:>9}  {p.spec.label()}" + (f"  ({p.note})" if p.note else ""))
     n = {a: sum(p.action == a for p in plans) for a in ACTIONS}
     click.echo(", ".join(f"{n[a]} to {a}" if a in ("start", "resume", "skip") else f"{n[a]} {a}"
                          for a in ACTIONS if n[a] or a in ("start", "resume", "skip")))
     if work:
-        cpu = sum(costs)
-        click.echo(f"estimated {format_duration(cpu)} of CPU, about {format_duration(wall_time(costs, processes))} "
-                   f"wall on {processes} process(es) [{source}]")
+        cpu = STARTUP_CPU_S + sum(c for c, _ in costs)
+        wall = STARTUP_S + wall_time([w for _, w in costs], processes)
+        click.echo(f"estimated {format_duration(cpu)} of CPU and about {format_duration(wall)} of wall time on "
+                   f"{processes} process(es), start-up included [{source}]")
     for line in _plan_advice(n, arg):
         click.echo(line)
 

@@ -5,12 +5,41 @@ cells have left the lattice; :func:`bench_sweep` does so once per distinct cost 
 a sweep (N, modes, K, quadrature, and the state parameters of the first run with them)
 and turns the rates into the CPU time of the whole sweep.  Rates depend on the state
 (contacts per cell), so a setting is timed at the parameters of its first run.
+
+The cost model of a run (:func:`run_seconds`), used by ``fcsweep bench`` and
+``fcsweep simulate --dry-run``::
+
+    wall = RUN_OVERHEAD_S + CHECKPOINT_S x checkpoints + N x steps / (rate x share)
+
+``rate`` is cell-steps per CPU second of the step, ``share`` the fraction of a core the
+process gets on this machine now (CPU time / wall time while timing: on a machine
+shared with other jobs it is well below 1, and it is why a rate timed as "best of 3" on
+the wall clock underestimated runs by 2x), and the two constants are the wall time a
+run spends outside the step (creating the trajectory, lock, status files) and per
+checkpoint (trajectory append, checkpoint, fsyncs), measured on the 2-core development
+machine with a local disk (``benchmarks/cost_model.py`` checks the model against
+runs).  :func:`estimate_costs` calibrates ``rate x share`` per cost setting from the
+sweep's own finished runs when there are any, else by timing the step now
+(:func:`probe_cost`).
 """
 
 from __future__ import annotations
 
+import statistics
 import time
 from dataclasses import dataclass
+
+from fcsweep.io.status import read_status
+
+#: Wall seconds a run spends outside the step: trajectory and lock creation, status
+#: files, final rename (2-core development machine, local disk).
+RUN_OVERHEAD_S = 0.15
+#: Wall seconds per checkpoint: buffered frames appended, checkpoint written, fsyncs.
+CHECKPOINT_S = 0.06
+#: CPU seconds of the same work (most of the wall time above is waiting for the disk).
+RUN_OVERHEAD_CPU_S, CHECKPOINT_CPU_S = 0.05, 0.02
+#: Wall and CPU seconds of starting ``fcsweep simulate``: imports, loading the compiled kernels.
+STARTUP_S, STARTUP_CPU_S = 3.0, 1.5
 
 #: Parameters that set the cost of one step (besides the state the dynamics reaches).
 COST_KEYS = ("N", "modes", "contour_points", "quadrature")
@@ -92,3 +121,144 @@ def bench_sweep(cfg, *, steps=200, warm=2000, quadratures=None, threads=1, log=N
             rows.append(BenchRow({k: params[k] for k in COST_KEYS}, len(specs), work, rate,
                                  own=rule == base["quadrature"]))
     return rows
+
+
+# ------------------------------------------------------------------ cost model
+
+
+@dataclass(frozen=True)
+class StepCost:
+    """Effective speed of the step for one cost setting.
+
+    ``rate`` is cell-steps per CPU second, ``share`` the fraction of a core the process
+    got (wall speed = rate x share); ``source`` says where the numbers come from.
+    """
+
+    rate: float
+    share: float
+    source: str
+
+    @property
+    def wall_rate(self) -> float:
+        """Cell-steps per wall-clock second."""
+        return self.rate * self.share
+
+
+def run_seconds(params, steps: int, checkpoints: int, cost: StepCost) -> float:
+    """Estimated wall seconds of ``steps`` steps of one run with ``params`` (see the
+    module docstring for the model)."""
+    return RUN_OVERHEAD_S + CHECKPOINT_S * checkpoints + int(params["N"]) * int(steps) / cost.wall_rate
+
+
+def run_cpu_seconds(params, steps: int, checkpoints: int, cost: StepCost) -> float:
+    """Estimated CPU seconds of the same work (the step at ``cost.rate``, no waiting)."""
+    return RUN_OVERHEAD_CPU_S + CHECKPOINT_CPU_S * checkpoints + int(params["N"]) * int(steps) / cost.rate
+
+
+def probe_cost(params, *, cell_steps: float = 1.5e5, blocks: int = 3, threads: int | None = None) -> StepCost:
+    """Time the step from the lattice at ``params``: one block of ``cell_steps``
+    cell-steps to leave the lattice, then the median CPU rate of ``blocks`` more, and
+    the CPU share of the process over them.  About a second per setting on this
+    machine (after compilation)."""
+    import numba
+
+    from fcsweep.simulation import Simulation
+
+    previous = numba.get_num_threads()
+    if threads is not None:
+        numba.set_num_threads(int(threads))
+    try:
+        N = int(params["N"])
+        steps = max(int(cell_steps // N), 5)
+        sim = Simulation.from_lattice(**dict(params))
+        sim.advance(steps)
+        rates, cpu, wall = [], 0.0, 0.0
+        for _ in range(blocks):
+            c0, w0 = time.process_time(), time.perf_counter()
+            sim.advance(steps)
+            dc, dw = time.process_time() - c0, time.perf_counter() - w0
+            rates.append(N * steps / max(dc, 1e-9))
+            cpu, wall = cpu + dc, wall + dw
+    finally:
+        numba.set_num_threads(previous)
+    threads_used = max(1, min(numba.get_num_threads(), N // 512))
+    share = min(cpu / max(wall, 1e-9) / threads_used, 1.0)
+    return StepCost(statistics.median(rates) * threads_used, share,
+                    f"step timed now: {statistics.median(rates) * threads_used:.3g} cell-steps per CPU s, "
+                    f"{share:.0%} of a core free")
+
+
+def history_cost(cfg, specs) -> StepCost | None:
+    """The speed finished runs of ``specs`` actually reached (their wall time less the
+    model's overheads), or None if none is done."""
+    work = wall = 0.0
+    n = 0
+    for spec in specs:
+        st = read_status(cfg.run_dir(spec.run_id)) or {}
+        if st.get("status") != "done" or not st.get("wall_seconds") or not st.get("steps_done"):
+            continue
+        steps = int(st["steps_done"])
+        checkpoints = -(-steps // cfg.run.checkpoint_every)
+        t = float(st["wall_seconds"]) - RUN_OVERHEAD_S - CHECKPOINT_S * checkpoints
+        if t > 0:
+            work += int(spec.params["N"]) * steps
+            wall += t
+            n += 1
+    if not n:
+        return None
+    return StepCost(work / wall, 1.0, f"speed of {n} finished run(s) of this sweep: {work / wall:.3g} cell-steps/s")
+
+
+def estimate_costs(cfg, plans, *, log=None) -> tuple[list[tuple[float, float]], str]:
+    """Estimated (CPU, wall) seconds of every planned run
+    (:class:`fcsweep.sweep.plan.PlannedRun` with steps left), and a line saying how the
+    estimate was calibrated.
+
+    Per cost setting (:data:`COST_KEYS`): the speed of the sweep's finished runs with
+    that setting if there are any, else :func:`probe_cost` at the first run's
+    parameters (compiling the kernels first if needed).
+    """
+    groups: dict[tuple, list] = {}
+    for spec in cfg.runs():
+        groups.setdefault(tuple(spec.params[k] for k in COST_KEYS), []).append(spec)
+    costs: dict[tuple, StepCost] = {}
+    for p in plans:
+        key = tuple(p.spec.params[k] for k in COST_KEYS)
+        if key in costs:
+            continue
+        cost = history_cost(cfg, groups[key])
+        if cost is None:
+            from fcsweep.sweep.warmup import compile_kernels
+
+            compile_kernels(log)
+            if log:
+                log("timing N={} modes={} K={} {} for the estimate ...".format(*key))
+            cost = probe_cost(p.spec.params)
+        costs[key] = cost
+    out = []
+    for p in plans:
+        cost = costs[tuple(p.spec.params[k] for k in COST_KEYS)]
+        every = cfg.run.checkpoint_every
+        checkpoints = -(-(p.from_step + p.steps_left) // every) - p.from_step // every
+        out.append((run_cpu_seconds(p.spec.params, p.steps_left, checkpoints, cost),
+                    run_seconds(p.spec.params, p.steps_left, checkpoints, cost)))
+    return out, "; ".join(sorted({c.source for c in costs.values()}))
+
+
+def wall_time(seconds, processes: int) -> float:
+    """Wall time of runs taking ``seconds`` each on ``processes`` processes that each take
+    the next run when free (longest first; no run is split)."""
+    free = [0.0] * max(int(processes), 1)
+    for t in sorted(seconds, reverse=True):
+        free[free.index(min(free))] += t
+    return max(free)
+
+
+def sweep_seconds(cfg, rows) -> list[float]:
+    """Estimated wall seconds of every run of ``cfg`` on a free core, from
+    :func:`bench_sweep` rows of its own quadratures (rate timed on the wall clock)."""
+    speed = {tuple(r.setting[k] for k in COST_KEYS): r.rate for r in rows}
+    checkpoints = -(-cfg.run.steps // cfg.run.checkpoint_every)
+    return [run_seconds(s.params, cfg.run.steps, checkpoints,
+                        StepCost(speed[tuple(s.params[k] for k in COST_KEYS)], 1.0, "bench"))
+            for s in cfg.runs()]

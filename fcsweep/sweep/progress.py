@@ -1,9 +1,9 @@
 """Progress display: tqdm bars on an interactive terminal, plain log lines otherwise.
 
 Plain lines (batch logs) carry the rate and an estimated time to completion: per run,
-steps per second since the run was first seen here; for the sweep, computed runs per
-hour since the first one finished, and the time left for the remaining ones at that
-rate (runs in parallel included, since it is measured on the wall clock).
+steps per second since the run was first seen here; for the sweep, the wall time per
+computed run since the sweep started, and the time left for the remaining runs at that
+pace (runs in parallel included, since it is measured on the wall clock).
 """
 
 from __future__ import annotations
@@ -111,13 +111,13 @@ class Progress:
         self.log(f"[{self.finished}/{self.total}] {msg}{self._sweep_eta()}")
 
     def _sweep_eta(self) -> str:
-        """``; 12 runs/h, about 40 min left`` once a run has been computed here."""
+        """``; 5.0 min per run, about 40 min left`` once a run has been computed here."""
         left = self.total - self.finished
         elapsed = time.time() - self._start
         if self.interactive or not self.computed or not left or elapsed <= 0:
             return ""
         per_run = elapsed / self.computed
-        return f"; {3600 / per_run:.3g} runs/h, about {format_duration(left * per_run)} left"
+        return f"; {format_duration(per_run)} per run, about {format_duration(left * per_run)} left"
 
     def close(self) -> None:
         for bar in self._bars.values():

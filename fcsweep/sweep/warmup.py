@@ -11,6 +11,8 @@ one compilation serves all configs.
 
 from __future__ import annotations
 
+import hashlib
+import os
 import threading
 import time
 from pathlib import Path
@@ -29,10 +31,19 @@ def cache_dir() -> Path:
     return Path(CACHE_DIR)
 
 
+def _source_cache_dir() -> Path:
+    """Numba's subdirectory of :func:`cache_dir` for the kernels of this installation
+    (``kernels_<sha1 of the source directory>``, as numba's cache locator names it)."""
+    import fcsweep.kernels
+
+    src = os.path.dirname(os.path.abspath(fcsweep.kernels.__file__))
+    return cache_dir() / f"kernels_{hashlib.sha1(src.encode()).hexdigest()}"
+
+
 def kernels_cached() -> bool:
     """True when the cache holds compiled code of every entry point (index files
     ``<module>.<function>-<line>.py<ver>.nbi`` that numba writes next to the code)."""
-    d = cache_dir()
+    d = _source_cache_dir()
     return d.is_dir() and all(any(d.glob(f"{name}-*.nbi")) for name in _ENTRY_POINTS)
 
 
