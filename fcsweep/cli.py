@@ -236,14 +236,14 @@ def _failure_advice(outcomes, arg: str) -> list[str]:
 
 def _dry_run(cfg, specs, src, out_dir, processes, force, retry_failed, stale_after, arg) -> None:
     """Print what `simulate` would do and what it would cost; write nothing."""
-    from fcsweep.sweep.bench import STARTUP_CPU_S, STARTUP_S, estimate_costs, wall_time
+    from fcsweep.sweep.bench import STARTUP_CPU_S, estimate_costs, wall_time
     from fcsweep.sweep.plan import ACTIONS, plan_runs
     from fcsweep.sweep.progress import format_duration
 
     plans = plan_runs(cfg, specs, force=force, retry_failed=retry_failed, stale_after=stale_after)
     click.echo(f"dry run: {len(specs)} run(s) of {src} -> {out_dir} (nothing is written)")
     work = [p for p in plans if p.steps_left > 0]
-    costs, source = estimate_costs(cfg, work, log=_say) if work else ([], "")
+    costs, share, source = estimate_costs(cfg, work, log=_say) if work else ([], 1.0, "")
     cost = {p.spec.index: c for p, c in zip(work, costs)}
     click.echo(f"{'idx':>4}  {'run_id':12}  {'action':8}  {'from step':>9}  {'steps':>9}  {'est. wall':>9}  "
                "parameters")
@@ -256,7 +256,7 @@ def _dry_run(cfg, specs, src, out_dir, processes, force, retry_failed, stale_aft
                          for a in ACTIONS if n[a] or a in ("start", "resume", "skip")))
     if work:
         cpu = STARTUP_CPU_S + sum(c for c, _ in costs)
-        wall = STARTUP_S + wall_time([w for _, w in costs], processes)
+        wall = STARTUP_CPU_S / share + wall_time([w for _, w in costs], processes)
         click.echo(f"estimated {format_duration(cpu)} of CPU and about {format_duration(wall)} of wall time on "
                    f"{processes} process(es), start-up included [{source}]")
     for line in _plan_advice(n, arg):

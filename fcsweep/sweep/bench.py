@@ -6,40 +6,37 @@ a sweep (N, modes, K, quadrature, and the state parameters of the first run with
 and turns the rates into the CPU time of the whole sweep.  Rates depend on the state
 (contacts per cell), so a setting is timed at the parameters of its first run.
 
-The cost model of a run (:func:`run_seconds`), used by ``fcsweep bench`` and
-``fcsweep simulate --dry-run``::
+The cost model of a run (:func:`run_cpu_seconds`, :func:`run_seconds`), used by
+``fcsweep bench`` and ``fcsweep simulate --dry-run``::
 
-    wall = RUN_OVERHEAD_S + CHECKPOINT_S x checkpoints + N x steps / (rate x share)
+    cpu  = RUN_CPU_S + CHECKPOINT_CPU_S x checkpoints + N x steps / rate
+    wall = cpu / share + RUN_IO_S + CHECKPOINT_IO_S x checkpoints
 
 ``rate`` is cell-steps per CPU second of the step, ``share`` the fraction of a core the
 process gets on this machine now (CPU time / wall time while timing: on a machine
 shared with other jobs it is well below 1, and it is why a rate timed as "best of 3" on
-the wall clock underestimated runs by 2x), and the two constants are the wall time a
-run spends outside the step (creating the trajectory, lock, status files) and per
-checkpoint (trajectory append, checkpoint, fsyncs), measured on the 2-core development
-machine with a local disk (``benchmarks/cost_model.py`` checks the model against
-runs).  :func:`estimate_costs` calibrates ``rate x share`` per cost setting from the
+the wall clock underestimated runs by 2x); the constants are the CPU time a run spends
+outside the step and per checkpoint, and the time it waits for the disk, measured on
+the 2-core development machine with a local disk (``benchmarks/cost_model.py`` checks
+the model against runs).  :func:`estimate_costs` calibrates ``rate x share`` per cost setting from the
 sweep's own finished runs when there are any, else by timing the step now
 (:func:`probe_cost`).
 """
 
 from __future__ import annotations
 
-import statistics
 import time
 from dataclasses import dataclass
 
 from fcsweep.io.status import read_status
 
-#: Wall seconds a run spends outside the step: trajectory and lock creation, status
-#: files, final rename (2-core development machine, local disk).
-RUN_OVERHEAD_S = 0.15
-#: Wall seconds per checkpoint: buffered frames appended, checkpoint written, fsyncs.
-CHECKPOINT_S = 0.06
-#: CPU seconds of the same work (most of the wall time above is waiting for the disk).
-RUN_OVERHEAD_CPU_S, CHECKPOINT_CPU_S = 0.05, 0.02
-#: Wall and CPU seconds of starting ``fcsweep simulate``: imports, loading the compiled kernels.
-STARTUP_S, STARTUP_CPU_S = 3.0, 1.5
+#: CPU seconds a run spends outside the step (trajectory, lock and status files, final
+#: rename) and per checkpoint (frames appended, checkpoint written), and the seconds
+#: each waits for the disk (fsyncs): 2-core development machine, local disk.
+RUN_CPU_S, RUN_IO_S = 0.05, 0.07
+CHECKPOINT_CPU_S, CHECKPOINT_IO_S = 0.02, 0.03
+#: CPU seconds of starting ``fcsweep simulate``: imports, loading the compiled kernels.
+STARTUP_CPU_S = 2.0
 
 #: Parameters that set the cost of one step (besides the state the dynamics reaches).
 COST_KEYS = ("N", "modes", "contour_points", "quadrature")
@@ -144,22 +141,25 @@ class StepCost:
         return self.rate * self.share
 
 
-def run_seconds(params, steps: int, checkpoints: int, cost: StepCost) -> float:
-    """Estimated wall seconds of ``steps`` steps of one run with ``params`` (see the
-    module docstring for the model)."""
-    return RUN_OVERHEAD_S + CHECKPOINT_S * checkpoints + int(params["N"]) * int(steps) / cost.wall_rate
-
-
 def run_cpu_seconds(params, steps: int, checkpoints: int, cost: StepCost) -> float:
-    """Estimated CPU seconds of the same work (the step at ``cost.rate``, no waiting)."""
-    return RUN_OVERHEAD_CPU_S + CHECKPOINT_CPU_S * checkpoints + int(params["N"]) * int(steps) / cost.rate
+    """Estimated CPU seconds of ``steps`` steps of one run with ``params``, writing
+    ``checkpoints`` checkpoints (see the module docstring for the model)."""
+    return RUN_CPU_S + CHECKPOINT_CPU_S * checkpoints + int(params["N"]) * int(steps) / cost.rate
 
 
-def probe_cost(params, *, cell_steps: float = 1.5e5, blocks: int = 3, threads: int | None = None) -> StepCost:
-    """Time the step from the lattice at ``params``: one block of ``cell_steps``
-    cell-steps to leave the lattice, then the median CPU rate of ``blocks`` more, and
-    the CPU share of the process over them.  About a second per setting on this
-    machine (after compilation)."""
+def run_seconds(params, steps: int, checkpoints: int, cost: StepCost) -> float:
+    """Estimated wall seconds of the same run: its CPU time at the CPU share of
+    ``cost``, plus the time it waits for the disk."""
+    return (run_cpu_seconds(params, steps, checkpoints, cost) / cost.share
+            + RUN_IO_S + CHECKPOINT_IO_S * checkpoints)
+
+
+def probe_cost(params_list, *, cell_steps: float = 1e5, blocks: int = 3, threads: int | None = None) -> StepCost:
+    """Time the step from the lattice at each of ``params_list`` (the first and last
+    run of a cost setting: the state changes the cost): one block of ``cell_steps``
+    cell-steps to leave the lattice, then ``blocks`` timed blocks.  Returns the pooled
+    rate (all timed cell-steps / their CPU time) and the CPU share of the process over
+    them.  A few seconds per setting on this machine (after compilation)."""
     import numba
 
     from fcsweep.simulation import Simulation
@@ -167,52 +167,63 @@ def probe_cost(params, *, cell_steps: float = 1.5e5, blocks: int = 3, threads: i
     previous = numba.get_num_threads()
     if threads is not None:
         numba.set_num_threads(int(threads))
+    work = cpu = wall = 0.0
     try:
-        N = int(params["N"])
-        steps = max(int(cell_steps // N), 5)
-        sim = Simulation.from_lattice(**dict(params))
-        sim.advance(steps)
-        rates, cpu, wall = [], 0.0, 0.0
-        for _ in range(blocks):
-            c0, w0 = time.process_time(), time.perf_counter()
+        for params in params_list:
+            N = int(params["N"])
+            steps = max(int(cell_steps // N), 5)
+            sim = Simulation.from_lattice(**dict(params))
             sim.advance(steps)
-            dc, dw = time.process_time() - c0, time.perf_counter() - w0
-            rates.append(N * steps / max(dc, 1e-9))
-            cpu, wall = cpu + dc, wall + dw
+            threads_used = max(1, min(numba.get_num_threads(), N // 512))
+            c0, w0 = time.process_time(), time.perf_counter()
+            sim.advance(blocks * steps)
+            cpu += (time.process_time() - c0) / threads_used
+            wall += time.perf_counter() - w0
+            work += N * blocks * steps
     finally:
         numba.set_num_threads(previous)
-    threads_used = max(1, min(numba.get_num_threads(), N // 512))
-    share = min(cpu / max(wall, 1e-9) / threads_used, 1.0)
-    return StepCost(statistics.median(rates) * threads_used, share,
-                    f"step timed now: {statistics.median(rates) * threads_used:.3g} cell-steps per CPU s, "
-                    f"{share:.0%} of a core free")
+    share = min(cpu / max(wall, 1e-9), 1.0)
+    rate = work / max(cpu, 1e-9)
+    return StepCost(rate, share, f"step timed now: {rate:.3g} cell-steps per CPU s, {share:.0%} of a core free")
+
+
+def cpu_share(seconds: float = 0.5) -> float:
+    """Fraction of a core this process gets now (CPU / wall time of a busy loop)."""
+    c0, w0 = time.process_time(), time.perf_counter()
+    while time.perf_counter() - w0 < seconds:
+        sum(range(10_000))
+    return min((time.process_time() - c0) / max(time.perf_counter() - w0, 1e-9), 1.0)
 
 
 def history_cost(cfg, specs) -> StepCost | None:
-    """The speed finished runs of ``specs`` actually reached (their wall time less the
-    model's overheads), or None if none is done."""
-    work = wall = 0.0
-    n = 0
+    """The step speed finished runs of ``specs`` reached: their wall time less the
+    model's overheads, at the CPU share this process gets now (assuming the machine is
+    as busy as when they ran); None if none is done."""
+    done = []
     for spec in specs:
         st = read_status(cfg.run_dir(spec.run_id)) or {}
-        if st.get("status") != "done" or not st.get("wall_seconds") or not st.get("steps_done"):
-            continue
-        steps = int(st["steps_done"])
-        checkpoints = -(-steps // cfg.run.checkpoint_every)
-        t = float(st["wall_seconds"]) - RUN_OVERHEAD_S - CHECKPOINT_S * checkpoints
-        if t > 0:
-            work += int(spec.params["N"]) * steps
-            wall += t
-            n += 1
-    if not n:
+        if st.get("status") == "done" and st.get("wall_seconds") and st.get("steps_done"):
+            done.append((int(spec.params["N"]), int(st["steps_done"]), float(st["wall_seconds"])))
+    if not done:
         return None
-    return StepCost(work / wall, 1.0, f"speed of {n} finished run(s) of this sweep: {work / wall:.3g} cell-steps/s")
+    share = cpu_share()
+    work = cpu = 0.0
+    for N, steps, wall in done:
+        k = -(-steps // cfg.run.checkpoint_every)
+        step_cpu = (wall - RUN_IO_S - CHECKPOINT_IO_S * k) * share - RUN_CPU_S - CHECKPOINT_CPU_S * k
+        if step_cpu > 0:
+            work += N * steps
+            cpu += step_cpu
+    if not cpu:
+        return None
+    return StepCost(work / cpu, share, f"speed of {len(done)} finished run(s) of this sweep: "
+                    f"{work / cpu * share:.3g} cell-steps per s, {share:.0%} of a core free now")
 
 
-def estimate_costs(cfg, plans, *, log=None) -> tuple[list[tuple[float, float]], str]:
+def estimate_costs(cfg, plans, *, log=None) -> tuple[list[tuple[float, float]], float, str]:
     """Estimated (CPU, wall) seconds of every planned run
-    (:class:`fcsweep.sweep.plan.PlannedRun` with steps left), and a line saying how the
-    estimate was calibrated.
+    (:class:`fcsweep.sweep.plan.PlannedRun` with steps left), the CPU share of a core
+    this process gets now, and a line saying how the estimate was calibrated.
 
     Per cost setting (:data:`COST_KEYS`): the speed of the sweep's finished runs with
     that setting if there are any, else :func:`probe_cost` at the first run's
@@ -233,7 +244,8 @@ def estimate_costs(cfg, plans, *, log=None) -> tuple[list[tuple[float, float]], 
             compile_kernels(log)
             if log:
                 log("timing N={} modes={} K={} {} for the estimate ...".format(*key))
-            cost = probe_cost(p.spec.params)
+            members = groups[key]
+            cost = probe_cost([members[0].params] + ([members[-1].params] if len(members) > 1 else []))
         costs[key] = cost
     out = []
     for p in plans:
@@ -242,7 +254,8 @@ def estimate_costs(cfg, plans, *, log=None) -> tuple[list[tuple[float, float]], 
         checkpoints = -(-(p.from_step + p.steps_left) // every) - p.from_step // every
         out.append((run_cpu_seconds(p.spec.params, p.steps_left, checkpoints, cost),
                     run_seconds(p.spec.params, p.steps_left, checkpoints, cost)))
-    return out, "; ".join(sorted({c.source for c in costs.values()}))
+    share = min((c.share for c in costs.values()), default=1.0)
+    return out, share, "; ".join(sorted({c.source for c in costs.values()}))
 
 
 def wall_time(seconds, processes: int) -> float:
