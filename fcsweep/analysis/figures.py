@@ -33,7 +33,7 @@ import numpy as np  # noqa: E402
 from matplotlib.collections import PolyCollection  # noqa: E402
 from matplotlib.colors import BoundaryNorm, ListedColormap, Normalize  # noqa: E402
 from matplotlib.patches import Patch, Rectangle  # noqa: E402
-from matplotlib.ticker import NullFormatter  # noqa: E402
+from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter  # noqa: E402
 
 from fcsweep.analysis.diffusion import D_EFF_SOLID  # noqa: E402
 from fcsweep.analysis.phase import PHASE_FLAGS, RHO_D_PERCOLATION  # noqa: E402
@@ -150,6 +150,15 @@ def _is_log_grid(values) -> bool:
     return np.std(dl) / np.mean(dl) < 0.5 * np.std(dv) / np.mean(dv)
 
 
+def _log_axis(values) -> bool:
+    """Log axis for a logarithmic grid, and for positive values whose linear cells
+    would reach zero or below (two points a decade apart: eta 0.01 and 0.1)."""
+    v = np.asarray(values, dtype=float)
+    if _is_log_grid(v):
+        return True
+    return v.size >= 2 and bool(np.all(v > 0)) and _edges(v, False)[0] <= 0
+
+
 def _edges(values, log: bool) -> np.ndarray:
     """Cell edges around grid values (geometric midpoints on a log grid)."""
     v = np.asarray(values, dtype=float)
@@ -243,6 +252,20 @@ def _panels(n, width=3.2, height=2.7, sharey=True):
     return fig, flat[:n]
 
 
+def _tidy_log(ax):
+    """Log axes spanning under two decades get labelled 1-2-5 ticks (under one decade:
+    1..9) in plain numbers, not a single 10^0 nor overlapping minor labels."""
+    for axis, lim in ((ax.xaxis, ax.get_xlim()), (ax.yaxis, ax.get_ylim())):
+        if axis.get_scale() != "log":
+            continue
+        axis.set_minor_formatter(NullFormatter())
+        lo, hi = sorted(lim)
+        if lo > 0 and hi / lo < 100:
+            subs = np.arange(1.0, 10.0) if hi / lo < 10 else (1.0, 2.0, 5.0)
+            axis.set_major_locator(LogLocator(subs=subs))
+            axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+
+
 def _no_data(ax, text="no data"):
     ax.text(0.5, 0.5, text, transform=ax.transAxes, ha="center", va="center", color="0.4")
 
@@ -262,7 +285,7 @@ def phase_diagram(ds, *, select=None):
     """
     eta, v0 = ds["eta"].values.astype(float), ds["v0"].values.astype(float)
     words = _phase_words(ds, ("v0", "eta"), select)
-    log_x, log_y = _is_log_grid(eta), _is_log_grid(v0)
+    log_x, log_y = _log_axis(eta), _log_axis(v0)
     ex, ey = _edges(eta, log_x), _edges(v0, log_y)
     fig, ax = plt.subplots(figsize=(6.4, 4.3))
     order = ["solid", "fluid", "soft_fluid", "undetermined", "unknown"]
@@ -320,7 +343,7 @@ def d_eff_curves(ds, *, select=None):
     ax.axhline(D_EFF_SOLID, color="k", ls=":", lw=1.2)
     ax.text(eta.min() if eta.size else 0, D_EFF_SOLID * 1.3, r" solid below $10^{-3}$", fontsize=8, va="bottom")
     ax.set_yscale("symlog", linthresh=1e-4, linscale=0.5)
-    if _is_log_grid(eta):
+    if _log_axis(eta):
         ax.set_xscale("log")
         ax.set_xticks(eta)
         ax.set_xticklabels([f"{e:g}" for e in eta])
@@ -392,7 +415,7 @@ def largest_cluster(ds, *, v0=None, select=None):
         ok = np.isfinite(y)
         ax.errorbar(eta[ok], y[ok], yerr=None if err is None else err[k][ok], fmt="o-",
                     color=palette[k % len(palette)], capsize=2.5, label=f"N = {int(N)}")
-    if _is_log_grid(eta):
+    if _log_axis(eta):
         ax.set_xscale("log")
         ax.set_xticks(eta)
         ax.set_xticklabels([f"{e:g}" for e in eta])
@@ -485,6 +508,8 @@ def correlations(ds, *, across="eta", at=None, select=None):
     a2.set_xlabel(r"$r / R_0$")
     a2.set_ylabel(r"$G_6(r)$")
     fixed_label = r"$v_0$" if fixed == "v0" else r"$\eta$"
+    _tidy_log(a1)
+    _tidy_log(a2)
     _value_colorbar(fig, [a1, a2], values, label)
     fig.suptitle(f"{fixed_label} = {float(sel[fixed]):g};  " + caption(ds, select), fontsize=8.5)
     return fig
@@ -500,19 +525,21 @@ def msd_curves(ds, *, v0=None, select=None):
     fig, ax = plt.subplots(figsize=(5.4, 3.8))
     t = m["lag_time"].values
     etas = m["eta"].values
+    first = []
     for e, col in zip(etas, _colors(len(etas))):
         y = m.sel(eta=e).values
         ok = np.isfinite(y) & (y > 0) & (t > 0)
         if ok.any():
             ax.loglog(t[ok], y[ok], color=col)
+            first.append(y[ok][0])
     tp = t[np.isfinite(t) & (t > 0)]
-    if tp.size >= 2:
+    if tp.size >= 2 and first:
         tt = np.array([tp.min(), tp.max()])
-        ax.loglog(tt, 1e-3 * (tt / tt[0]) ** 2, "k:", lw=1, label=r"$\propto t^2$")
-        ax.loglog(tt, 1e-3 * (tt / tt[0]), "k--", lw=1, label=r"$\propto t$")
+        y0 = 0.3 * min(first)  # guides start below the curves
+        ax.loglog(tt, y0 * (tt / tt[0]) ** 2, "k:", lw=1, label=r"$\propto t^2$ (ballistic)")
+        ax.loglog(tt, y0 * (tt / tt[0]), "k--", lw=1, label=r"$\propto t$ (diffusive)")
         ax.legend(loc="upper left")
-    for axis in (ax.xaxis, ax.yaxis):
-        axis.set_minor_formatter(NullFormatter())
+    _tidy_log(ax)
     ax.set_xlabel(f"lag time t [{TIME_UNIT}]")
     ax.set_ylabel(r"MSD / $R_0^2$")
     ax.set_title(textwrap.fill(rf"$v_0$ = {float(sel['v0']):g}, " + caption(ds, select), 70, break_long_words=False),
