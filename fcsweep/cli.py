@@ -346,9 +346,9 @@ def bench(config, compare, steps, warm, threads, workers, as_json):
     compile_kernels(log)
     rows = bench_sweep(cfg, steps=steps, warm=warm, quadratures=list(compare) or None, threads=threads, log=log)
     per_run = sweep_seconds(cfg, [r for r in rows if r.own])  # its own rules, not the --compare ones
-    cpu = sum(per_run)
+    cpu = sum(c for c, _ in per_run)
     processes, _ = worker_layout(workers)
-    wall = wall_time(per_run, processes)
+    wall = wall_time([w for _, w in per_run], processes)
     if as_json:
         click.echo(json.dumps({"rows": [{**r.setting, "runs": r.runs, "cell_steps": r.cell_steps,
                                          "cell_steps_per_s": r.rate, "cpu_seconds": r.cpu_seconds} for r in rows],
@@ -413,11 +413,19 @@ def analyze(config, output, workers, force):
         sys.exit(1)
 
 
-def _analysed(cfg) -> int:
-    """Number of done runs with an analysis.h5 (up to date or stale)."""
+def _analysed(cfg) -> tuple[int, str]:
+    """Number of done runs with an analysis.h5 (up to date or stale), and what to do
+    when there is none: analyse the done runs, or simulate, or look elsewhere."""
     from fcsweep.sweep.status import collect_status
 
-    return sum(r["analysis"] in ("yes", "stale") for r in collect_status(cfg))
+    rows = collect_status(cfg)
+    n = sum(r["analysis"] in ("yes", "stale") for r in rows)
+    done = sum(r["state"] == "done" for r in rows)
+    if done:
+        return n, f"{done} run(s) are done but not analysed: `fcsweep analyze` first"
+    if any(r["state"] != "pending" for r in rows):
+        return n, "no run is done yet (see `fcsweep status`)"
+    return n, "nothing simulated here"
 
 
 @cli.command()
@@ -429,9 +437,9 @@ def aggregate(config, output):
 
     cfg = _load(config, output)
     out = _announce(cfg)
-    if not _analysed(cfg):
-        _nothing(f"nothing to aggregate in {out}: no run is analysed (`fcsweep analyze` first; "
-                 f"{_wrong_dir_hint(config, output)})")
+    n, why = _analysed(cfg)
+    if not n:
+        _nothing(f"nothing to aggregate in {out}: {why} ({_wrong_dir_hint(config, output)})")
     click.echo(str(aggregate_sweep(cfg)))
 
 
@@ -450,9 +458,10 @@ def plot(config, output, run, frame, outdir):
     out = _announce(cfg)
     if run is not None:
         _trajectory_or_exit(cfg, run, out, config, output)
-    elif not (out / DATASET_FILE).exists() and not _analysed(cfg):
-        _nothing(f"nothing to plot in {out}: no phase_diagram.nc and no analysed run "
-                 f"({_wrong_dir_hint(config, output)})")
+    elif not (out / DATASET_FILE).exists():
+        n, why = _analysed(cfg)
+        if not n:
+            _nothing(f"nothing to plot in {out}: no phase_diagram.nc, {why} ({_wrong_dir_hint(config, output)})")
     try:
         paths = plot_sweep(cfg, run=run, frame=frame, outdir=Path(outdir) if outdir else None)
     except NothingToPlot as exc:

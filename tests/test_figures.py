@@ -1,8 +1,16 @@
-"""Figures are produced from a phase-diagram dataset, also for 1-D grids and single points."""
+"""Figures are produced from a phase-diagram dataset, also for 1-D grids and single points,
+and say what a reader needs: phases as regions (undetermined ones distinct), log axes for
+log grids, error bars where errors exist, one panel per v0, a caption with N, run length
+and quadrature."""
 
+import json
+
+import matplotlib
 import numpy as np
 import pytest
 import xarray as xr
+from matplotlib.container import ErrorbarContainer
+from matplotlib.patches import Rectangle
 
 from fcsweep.analysis import figures as plots
 from fcsweep.model.lattice import hexagonal_lattice
@@ -33,10 +41,25 @@ def synthetic_dataset(etas=(0.01, 0.03, 0.06, 0.1), v0s=(0.02, 0.04, 0.06), Ns=(
     ds["msd"] = (dims + ["lag_time"], D[..., None] * t + 1e-4)
     ds["G6"] = (dims + ["r"], np.broadcast_to(r ** -0.25, shape + r.shape).copy())
     ds["Gr"] = (dims + ["dx"], 1 + rng.uniform(0, 1, shape + r.shape))
+    ds.attrs["config"] = json.dumps({"grid": {"eta": list(etas), "v0": list(v0s), "N": list(Ns)},
+                                     "model": {"dt": 0.005, "quadrature": "binary", "modes": 6,
+                                               "contour_points": 40, "Dr": 0.01},
+                                     "run": {"steps": 200000}})
     return ds
 
 
-FIGS = (plots.phase_diagram, plots.q_distributions, plots.largest_cluster,
+def with_statistics(ds):
+    """The variables issue 14 adds: an undetermined phase code and 1-sigma errors."""
+    ds = ds.copy(deep=True)
+    ds["phase"].attrs.update(flag_values=np.array([-1, 0, 1, 2, 3], dtype=np.int8),
+                             flag_meanings="unknown solid fluid soft_fluid undetermined")
+    ds["phase"][1, 1] = 3
+    ds["D_eff_err"] = 0.2 * ds["D_eff"] + 1e-4
+    ds["largest_cluster_fraction_err"] = 0.05 + 0 * ds["D_eff"]
+    return ds
+
+
+FIGS = (plots.phase_diagram, plots.d_eff_curves, plots.q_distributions, plots.largest_cluster,
         plots.cluster_sizes, plots.correlations, plots.msd_curves)
 
 
@@ -48,7 +71,14 @@ def test_all_figures_written_for_grids_and_points(tmp_path, sub):
     elif sub == "single_point":
         ds = ds.isel(eta=[0], v0=[0], N=[0])
     for fn in FIGS:
-        for p in plots.save_figure(fn(ds), tmp_path / fn.__name__):
+        if sub == "full":  # both formats once; the degenerate grids need only to draw
+            paths = plots.save_figure(fn(ds), tmp_path / fn.__name__, dpi=100)
+        else:
+            fig = fn(ds)
+            fig.savefig(tmp_path / f"{fn.__name__}.png", dpi=40)
+            matplotlib.pyplot.close(fig)
+            paths = [tmp_path / f"{fn.__name__}.png"]
+        for p in paths:
             assert p.exists() and p.stat().st_size > 1000
 
 
@@ -81,3 +111,94 @@ def test_log_binned_cluster_density_recovers_power_law():
     c, d = plots.log_binned(s, counts)
     slope = np.polyfit(np.log(c[2:-2]), np.log(d[2:-2]), 1)[0]
     assert slope == pytest.approx(-187 / 91, abs=0.1)
+
+
+def test_caption_names_system_size_run_length_and_quadrature():
+    cap = plots.caption(synthetic_dataset())
+    assert "N = 256" in cap and "1000 time units (200,000 steps)" in cap and "binary quadrature" in cap
+    assert "N = 64" in plots.caption(synthetic_dataset(), {"N": 64})
+
+
+def test_log_axes_for_log_grids_and_for_a_decade_apart():
+    log_eta = synthetic_dataset(etas=(0.01, 0.0215, 0.0464, 0.1))
+    ax = plots.phase_diagram(log_eta).axes[0]
+    assert ax.get_xscale() == "log" and ax.get_yscale() == "linear"  # v0 0.02, 0.04, 0.06 is linear
+    lin = synthetic_dataset(etas=(0.02, 0.04, 0.06, 0.08))
+    assert plots.phase_diagram(lin).axes[0].get_xscale() == "linear"
+    two = synthetic_dataset(etas=(0.01, 0.1))  # linear cells would reach eta = -0.035
+    ax = plots.phase_diagram(two).axes[0]
+    assert ax.get_xscale() == "log" and ax.get_xlim()[0] > 0
+    matplotlib.pyplot.close("all")
+
+
+def _hatched(ax):
+    return [p for p in ax.patches if isinstance(p, Rectangle) and p.get_hatch()]
+
+
+def test_phase_regions_mark_undetermined_points_distinctly():
+    plain = synthetic_dataset()
+    ax = plots.phase_diagram(plain).axes[0]
+    assert not _hatched(ax)  # datasets without the code draw as before
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert "undetermined" not in labels and "solid" in labels
+    ds = with_statistics(plain)
+    ax = plots.phase_diagram(ds).axes[0]
+    assert len(_hatched(ax)) == 1
+    assert "undetermined" in [t.get_text() for t in ax.get_legend().get_texts()]
+    # replicates that disagree on the label are undetermined too
+    two = xr.concat([plain, plain.assign(phase=plain["phase"].where(plain["eta"] != 0.01, 1))], "replicate")
+    two = two.assign_coords(replicate=[0, 1])
+    ax = plots.phase_diagram(two).axes[0]
+    assert len(_hatched(ax)) == int(((plain["phase"].isel(N=-1, replicate=0) != 1)
+                                     & (plain["eta"] == 0.01)).sum())
+    matplotlib.pyplot.close("all")
+
+
+def test_contours_of_the_two_thresholds_are_drawn_and_named():
+    ax = plots.phase_diagram(synthetic_dataset()).axes[0]
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert r"$\langle q\rangle = 3.81$" in labels and r"$\rho_d = 1/2$" in labels
+    matplotlib.pyplot.close("all")
+
+
+def test_error_bars_where_the_dataset_has_errors():
+    def bars(fig):
+        return [c for c in fig.axes[0].containers if isinstance(c, ErrorbarContainer) and c.has_yerr]
+
+    ds = synthetic_dataset()
+    assert not bars(plots.d_eff_curves(ds)) and not bars(plots.largest_cluster(ds))
+    ds = with_statistics(ds)
+    assert len(bars(plots.d_eff_curves(ds))) == ds.sizes["v0"]
+    assert len(bars(plots.largest_cluster(ds))) == ds.sizes["N"]
+    assert plots.d_eff_curves(ds).axes[0].get_yscale() == "symlog"  # D_eff of a solid can be < 0
+    matplotlib.pyplot.close("all")
+
+
+def test_one_panel_per_v0_and_an_empty_cluster_panel_says_so():
+    ds = synthetic_dataset()
+    fig = plots.q_distributions(ds)
+    panels = [ax for ax in fig.axes if ax.get_title().startswith("$v_0$")]
+    assert len(panels) == ds.sizes["v0"]
+    ds["cluster_size_distribution"][:, 0] = 0.0  # no defect clusters at the first v0
+    fig = plots.cluster_sizes(ds)
+    texts = [t.get_text() for t in fig.axes[0].texts]
+    assert "no defect clusters" in texts
+    matplotlib.pyplot.close("all")
+
+
+def test_translational_correlation_keeps_negative_values():
+    ds = synthetic_dataset()
+    ds["Gr"][:] = 1 + 0.3 * np.cos(np.arange(ds.sizes["dx"]))  # G_r - 1 changes sign
+    ax = plots.correlations(ds).axes[0]
+    assert ax.get_yscale() == "symlog"
+    y = np.concatenate([ln.get_ydata() for ln in ax.get_lines() if len(ln.get_ydata()) > 2])
+    assert (y < 0).any() and (y > 0).any()
+    matplotlib.pyplot.close("all")
+
+
+def test_palettes_are_colour_blind_safe():
+    okabe = {c.lower() for c in plots.OKABE_ITO.values()}
+    assert {plots.PHASE_COLORS[w][0].lower() for w in ("solid", "fluid", "soft_fluid")} <= okabe
+    rgb = plots._colors(6)[:, :3]
+    luminance = rgb @ np.array([0.2126, 0.7152, 0.0722])
+    assert luminance.max() < 0.8  # viridis stops before its pale yellow end (luminance 0.87)

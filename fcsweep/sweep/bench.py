@@ -267,11 +267,14 @@ def wall_time(seconds, processes: int) -> float:
     return max(free)
 
 
-def sweep_seconds(cfg, rows) -> list[float]:
-    """Estimated wall seconds of every run of ``cfg`` on a free core, from
-    :func:`bench_sweep` rows of its own quadratures (rate timed on the wall clock)."""
+def sweep_seconds(cfg, rows) -> list[tuple[float, float]]:
+    """Estimated (CPU, wall) seconds of every run of ``cfg`` on a free core, from
+    :func:`bench_sweep` rows of its own quadratures (rates timed on the wall clock)."""
     speed = {tuple(r.setting[k] for k in COST_KEYS): r.rate for r in rows}
     checkpoints = -(-cfg.run.steps // cfg.run.checkpoint_every)
-    return [run_seconds(s.params, cfg.run.steps, checkpoints,
-                        StepCost(speed[tuple(s.params[k] for k in COST_KEYS)], 1.0, "bench"))
-            for s in cfg.runs()]
+    out = []
+    for s in cfg.runs():
+        cost = StepCost(speed[tuple(s.params[k] for k in COST_KEYS)], 1.0, "bench")
+        out.append((run_cpu_seconds(s.params, cfg.run.steps, checkpoints, cost),
+                    run_seconds(s.params, cfg.run.steps, checkpoints, cost)))
+    return out
