@@ -404,6 +404,10 @@ def analyze(config, output, workers, force):
     if not any(r["state"] == "done" for r in rows):
         _nothing(f"nothing to analyse in {out}: no run is done ({summary_line(rows)}; "
                  f"{_wrong_dir_hint(config, output)})")
+    old = [r for r in rows if r.get("outdated")]
+    if old:
+        _say(f"{len(old)} done run(s) were computed with other run settings than this config "
+             f"({old[0]['outdated']}); they are analysed as they are")
     results = analyze_sweep(cfg, workers=workers, force=force)
     failed = 0
     for run_id, st, msg in results:

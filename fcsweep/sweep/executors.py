@@ -55,6 +55,9 @@ def _init_worker(threads: int) -> None:
     signal.signal(signal.SIGTERM, _sigterm)  # release the run lock on termination
     os.environ["NUMBA_NUM_THREADS"] = str(threads)
     _set_numba_threads(threads)
+    from fcsweep.sweep.warmup import compile_kernels
+
+    compile_kernels()  # load the cached kernels now, not inside the first run's wall time
 
 
 def _set_numba_threads(threads: int) -> None:
