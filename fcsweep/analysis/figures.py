@@ -252,6 +252,21 @@ def _panels(n, width=3.2, height=2.7, sharey=True):
     return fig, flat[:n]
 
 
+def _grid_ticks(axis, values):
+    """Ticks at the grid values of a log axis: decades alone rarely label a 0.01-0.1 sweep."""
+    axis.set_ticks(values)
+    axis.set_ticklabels([f"{v:g}" for v in values])
+    axis.set_minor_formatter(NullFormatter())
+
+
+def _eta_axis(ax, eta):
+    """The x axis of curves against eta: logarithmic where the grid is, labelled."""
+    if _log_axis(eta):
+        ax.set_xscale("log")
+        _grid_ticks(ax.xaxis, eta)
+    ax.set_xlabel(r"membrane tension $\eta$")
+
+
 def _tidy_log(ax):
     """Log axes spanning under two decades get labelled 1-2-5 ticks (under one decade:
     1..9) in plain numbers, not a single 10^0 nor overlapping minor labels."""
@@ -267,7 +282,8 @@ def _tidy_log(ax):
 
 
 def _no_data(ax, text="no data"):
-    ax.text(0.5, 0.5, text, transform=ax.transAxes, ha="center", va="center", color="0.4")
+    ax.text(0.5, 0.5, text, transform=ax.transAxes, ha="center", va="center", color="0.3",
+            bbox={"facecolor": "w", "edgecolor": "none", "alpha": 0.9})
 
 
 # ------------------------------------------------------------------ sweep figures
@@ -312,10 +328,8 @@ def phase_diagram(ds, *, select=None):
     if log_y:
         ax.set_yscale("log")
     for axis, log, vals in ((ax.xaxis, log_x, eta), (ax.yaxis, log_y, v0)):
-        if log:  # tick at the grid values: decades alone rarely label a 0.01-0.1 sweep
-            axis.set_ticks(vals)
-            axis.set_ticklabels([f"{v:g}" for v in vals])
-            axis.set_minor_formatter(NullFormatter())
+        if log:
+            _grid_ticks(axis, vals)
     ax.set_xlim(ex[0], ex[-1])
     ax.set_ylim(ey[0], ey[-1])
     ax.set_xlabel(r"membrane tension $\eta$")
@@ -328,8 +342,8 @@ def phase_diagram(ds, *, select=None):
 @_styled
 def d_eff_curves(ds, *, select=None):
     """D_eff against eta, one curve per v0, with 1-sigma error bars where the dataset has
-    ``D_eff_err`` and the solid threshold 1e-3; symlog axis (noise makes a solid's D_eff
-    negative)."""
+    ``D_eff_err`` and the solid threshold 1e-3; a log axis, symlog where some D_eff <= 0
+    (fit noise in a solid)."""
     D = _plane(ds, "D_eff", ("v0", "eta"), select)
     err = _err(ds, "D_eff", ("v0", "eta"), select)
     eta, v0 = D["eta"].values.astype(float), D["v0"].values
@@ -342,13 +356,13 @@ def d_eff_curves(ds, *, select=None):
                         capsize=2.5)
     ax.axhline(D_EFF_SOLID, color="k", ls=":", lw=1.2)
     ax.text(eta.min() if eta.size else 0, D_EFF_SOLID * 1.3, r" solid below $10^{-3}$", fontsize=8, va="bottom")
-    ax.set_yscale("symlog", linthresh=1e-4, linscale=0.5)
-    if _log_axis(eta):
-        ax.set_xscale("log")
-        ax.set_xticks(eta)
-        ax.set_xticklabels([f"{e:g}" for e in eta])
-        ax.xaxis.set_minor_formatter(NullFormatter())
-    ax.set_xlabel(r"membrane tension $\eta$")
+    vals = D.values[np.isfinite(D.values)]
+    if vals.size and (vals <= 0).any():  # fit noise makes a solid's D_eff <= 0: symlog keeps it
+        ax.set_yscale("symlog", linthresh=1e-4, linscale=0.5)
+    else:
+        ax.set_yscale("log")
+        _tidy_log(ax)
+    _eta_axis(ax, eta)
     ax.set_ylabel(r"$D_{\rm eff} = D_s / D_0$")
     ax.set_title(caption(ds, select, 70), fontsize=8.5, loc="left")
     _value_colorbar(fig, ax, v0, r"$v_0$")
@@ -415,16 +429,12 @@ def largest_cluster(ds, *, v0=None, select=None):
         ok = np.isfinite(y)
         ax.errorbar(eta[ok], y[ok], yerr=None if err is None else err[k][ok], fmt="o-",
                     color=palette[k % len(palette)], capsize=2.5, label=f"N = {int(N)}")
-    if _log_axis(eta):
-        ax.set_xscale("log")
-        ax.set_xticks(eta)
-        ax.set_xticklabels([f"{e:g}" for e in eta])
-        ax.xaxis.set_minor_formatter(NullFormatter())
-    ax.set_xlabel(r"membrane tension $\eta$")
+    _eta_axis(ax, eta)
     ax.set_ylabel(r"$P_{\max} = s_{\max}/N$")
     ax.set_ylim(-0.02, 1.02)
     cap = caption(ds, {k: v for k, v in sel.items() if k != "N"})
-    ax.set_title(rf"$v_0$ = {float(sel['v0']):g}" + "\n" + cap.split(", ", 1)[-1], fontsize=8.5, loc="left")
+    ax.set_title(textwrap.fill(rf"$v_0$ = {float(sel['v0']):g}, " + cap.split(", ", 1)[-1], 60,
+                               break_long_words=False), fontsize=8.5, loc="left")
     ax.legend(loc="best")
     return fig
 
