@@ -286,16 +286,18 @@ def status(config, output, as_json):
     from fcsweep.sweep.status import advice, collect_status, format_status
 
     cfg = _load(config, output)
-    out = _announce(cfg)
+    out = Path(cfg.output).resolve() if as_json else _announce(cfg)  # --json: only JSON
     rows = collect_status(cfg)
     started = any(r["state"] != "pending" or r["steps_done"] for r in rows)
     if as_json:
         click.echo(json.dumps(rows, indent=1))
     elif started:
         click.echo(f"sweep {out}")
-        click.echo(format_status(rows))
+        *table, summary = format_status(rows).splitlines()
+        click.echo("\n".join(table))
         for line in advice(rows, _config_arg(config, output)):
             click.echo(f"next: {line}")
+        click.echo(summary)  # the last line, as scripts expect
     if not started:
         _nothing(f"nothing simulated in {out}: all {len(rows)} runs are pending "
                  f"({_wrong_dir_hint(config, output)})")

@@ -104,7 +104,7 @@ def test_status_says_which_runs_are_analysed_and_which_analyses_are_stale(done, 
     r = invoke("status", SMOKE, "-o", copy, "--json")
     import json
 
-    rows = json.loads(r.output[r.output.index("["):])
+    rows = json.loads(r.output)
     assert [row["analysis"] for row in rows] == ["yes"] * 4
     traj = next(copy.glob("runs/*/trajectory.h5"))
     later = traj.with_name("analysis.h5").stat().st_mtime + 10
