@@ -142,8 +142,10 @@ def test_phase_regions_mark_undetermined_points_distinctly():
     labels = [t.get_text() for t in ax.get_legend().get_texts()]
     assert "undetermined" not in labels and "solid" in labels
     ds = with_statistics(plain)
+    ds["phase"][3, 0] = -1  # nothing ran here (a non-product grid): white, not undetermined
     ax = plots.phase_diagram(ds).axes[0]
     assert len(_hatched(ax)) == 1
+    assert "not analysed" in [t.get_text() for t in ax.get_legend().get_texts()]
     assert "undetermined" in [t.get_text() for t in ax.get_legend().get_texts()]
     # replicates that disagree on the label are undetermined too
     two = xr.concat([plain, plain.assign(phase=plain["phase"].where(plain["eta"] != 0.01, 1))], "replicate")

@@ -131,7 +131,7 @@ def _phase_words(ds, keep, select) -> np.ndarray:
     if "replicate" in da.dims and "replicate" not in keep:
         da = da.where(da >= 0)
         lo, hi = da.min("replicate", skipna=True), da.max("replicate", skipna=True)
-        da = lo.where(lo == hi, -2)  # -2: replicates disagree
+        da = lo.where((lo == hi) | lo.isnull(), -2)  # -2: replicates disagree; NaN: no label at all
     codes = _select(da, keep, select).values
     out = np.full(codes.shape, "unknown", dtype=object)
     for code, word in words.items():
