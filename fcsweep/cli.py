@@ -71,6 +71,15 @@ class WorkflowGroup(click.Group):
         return sorted(self.commands, key=lambda n: (rank.get(n, len(rank)), n))
 
 
+def _rows(cfg):
+    """:func:`fcsweep.sweep.status.collect_status` with the analysis settings that
+    `fcsweep analyze` would use now, so that analyses made with others read ``stale``."""
+    from fcsweep.analysis.pipeline import settings_with
+    from fcsweep.sweep.status import collect_status
+
+    return collect_status(cfg, analysis_settings=settings_with(transient=cfg.run.transient))
+
+
 def _say(msg: str) -> None:
     click.echo(f"fcsweep: {msg}", err=True)
 
@@ -283,11 +292,11 @@ def _plan_advice(n: dict, arg: str) -> list[str]:
 def status(config, output, as_json):
     """Table of runs: done / running / interrupted / failed / pending, with progress,
     whether each is analysed (yes / stale / no), and what to do next."""
-    from fcsweep.sweep.status import advice, collect_status, format_status
+    from fcsweep.sweep.status import advice, format_status
 
     cfg = _load(config, output)
     out = Path(cfg.output).resolve() if as_json else _announce(cfg)  # --json: only JSON
-    rows = collect_status(cfg)
+    rows = _rows(cfg)
     started = any(r["state"] != "pending" or r["steps_done"] for r in rows)
     if as_json:
         click.echo(json.dumps(rows, indent=1))
@@ -398,11 +407,11 @@ def compile_cmd():
 def analyze(config, output, workers, force):
     """Analyse every finished run (writes analysis.h5 beside each trajectory)."""
     from fcsweep.analysis.pipeline import analyze_sweep
-    from fcsweep.sweep.status import collect_status, summary_line
+    from fcsweep.sweep.status import summary_line
 
     cfg = _load(config, output)
     out = _announce(cfg)
-    rows = collect_status(cfg)
+    rows = _rows(cfg)
     if not any(r["state"] == "done" for r in rows):
         _nothing(f"nothing to analyse in {out}: no run is done ({summary_line(rows)}; "
                  f"{_wrong_dir_hint(config, output)})")
@@ -422,9 +431,7 @@ def analyze(config, output, workers, force):
 def _analysed(cfg) -> tuple[int, str]:
     """Number of done runs with an analysis.h5 (up to date or stale), and what to do
     when there is none: analyse the done runs, or simulate, or look elsewhere."""
-    from fcsweep.sweep.status import collect_status
-
-    rows = collect_status(cfg)
+    rows = _rows(cfg)
     n = sum(r["analysis"] in ("yes", "stale") for r in rows)
     done = sum(r["state"] == "done" for r in rows)
     if done:

@@ -107,6 +107,13 @@ def test_status_says_which_runs_are_analysed_and_which_analyses_are_stale(done, 
     rows = json.loads(r.output)
     assert [row["analysis"] for row in rows] == ["yes"] * 4
     traj = next(copy.glob("runs/*/trajectory.h5"))
+    from fcsweep.analysis.pipeline import settings_with
+    from fcsweep.sweep.status import analysis_state
+
+    now = settings_with(transient=0.2)
+    assert analysis_state(traj.parent, 0.2, now) == "yes"
+    assert analysis_state(traj.parent, 0.2, {**now, "fit_window": [0.2, 0.5]}) == "stale"  # analyze would redo it
+    assert analysis_state(traj.parent, 0.3) == "stale"  # another transient
     later = traj.with_name("analysis.h5").stat().st_mtime + 10
     os.utime(traj, (later, later))  # the trajectory was recomputed after its analysis
     r = invoke("status", SMOKE, "-o", copy)

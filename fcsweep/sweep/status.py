@@ -26,9 +26,13 @@ __all__ = ["collect_status", "format_status", "summary_line", "analysis_state", 
 STATES = ("done", "running", "interrupted", "failed", "pending")
 
 
-def collect_status(cfg: SweepConfig) -> list[dict[str, Any]]:
+def collect_status(cfg: SweepConfig, analysis_settings: dict | None = None) -> list[dict[str, Any]]:
     """One dict per run: index, run_id, label, state, steps_done, steps, projections,
-    wall_seconds, reason, host, analysis, outdated."""
+    wall_seconds, reason, host, analysis, outdated.
+
+    ``analysis_settings``: the settings ``fcsweep analyze`` would use now (the caller
+    knows them; this layer does not import the analysis); an analysis.h5 made with
+    others is ``stale``.  Without them only the transient is compared."""
     from fcsweep.sweep.runner import fingerprint_of
 
     rows = []
@@ -56,7 +60,8 @@ def collect_status(cfg: SweepConfig) -> list[dict[str, Any]]:
                 "wall_seconds": st.get("wall_seconds"),
                 "reason": st.get("reason", ""),
                 "host": (lock or {}).get("host") if live_lock else st.get("host"),
-                "analysis": analysis_state(run_dir, cfg.run.transient) if state == schema.DONE else "",
+                "analysis": (analysis_state(run_dir, cfg.run.transient, analysis_settings)
+                             if state == schema.DONE else ""),
                 "outdated": (settings_change(st.get("fingerprint"), fingerprint_of(cfg, spec))
                              if state == schema.DONE else ""),
             }
@@ -64,9 +69,10 @@ def collect_status(cfg: SweepConfig) -> list[dict[str, Any]]:
     return rows
 
 
-def analysis_state(run_dir, transient: float) -> str:
-    """``yes``, ``stale`` or ``no``: is the run's ``analysis.h5`` there and up to date
-    (not older than the trajectory, made with the config's ``transient``)?"""
+def analysis_state(run_dir, transient: float, settings: dict | None = None) -> str:
+    """``yes``, ``stale`` or ``no``: is the run's ``analysis.h5`` there and up to date --
+    not older than the trajectory, and made with ``settings`` (if given) or at least
+    with the config's ``transient``?"""
     run_dir = Path(run_dir)
     path = run_dir / schema.ANALYSIS
     traj = run_dir / schema.TRAJECTORY
@@ -78,11 +84,13 @@ def analysis_state(run_dir, transient: float) -> str:
         import h5py
 
         with h5py.File(path, "r", locking=False) as f:
-            settings = json.loads(f.attrs.get("settings_json", "{}"))
+            used = json.loads(f.attrs.get("settings_json", "{}"))
     except (OSError, ValueError):
         return "stale"  # unreadable: `fcsweep analyze` recomputes it
-    used = settings.get("transient")
-    return "stale" if used is not None and abs(float(used) - float(transient)) > 1e-12 else "yes"
+    if settings is not None:
+        return "yes" if used == settings else "stale"
+    t = used.get("transient")
+    return "stale" if t is not None and abs(float(t) - float(transient)) > 1e-12 else "yes"
 
 
 def settings_change(have: str | None, want: str) -> str:
