@@ -347,7 +347,7 @@ def list_runs(config, count, as_json):
 def bench(config, compare, steps, warm, threads, workers, as_json):
     """Time the step on this machine for each cost setting of a sweep and estimate the
     sweep's CPU and wall time (without CONFIG: the built-in demo)."""
-    from fcsweep.sweep.bench import bench_sweep, sweep_seconds, wall_time
+    from fcsweep.sweep.bench import bench_sweep, cpu_share, sweep_seconds, wall_time
     from fcsweep.sweep.layout import worker_layout
     from fcsweep.sweep.progress import format_duration
     from fcsweep.sweep.warmup import compile_kernels
@@ -360,11 +360,13 @@ def bench(config, compare, steps, warm, threads, workers, as_json):
     cpu = sum(c for c, _ in per_run)
     processes, _ = worker_layout(workers)
     wall = wall_time([w for _, w in per_run], processes)
+    share = cpu_share()
     if as_json:
         click.echo(json.dumps({"rows": [{**r.setting, "runs": r.runs, "cell_steps": r.cell_steps,
                                          "cell_steps_per_s": r.rate, "cpu_seconds": r.cpu_seconds} for r in rows],
                                "sweep_cpu_seconds": cpu, "processes": processes,
-                               "sweep_wall_seconds": wall, "threads": threads}, indent=1))
+                               "sweep_wall_seconds": wall, "threads": threads, "cpu_share_now": share},
+                              indent=1))
         return
     click.echo(f"{'N':>6} {'modes':>5} {'K':>4} {'quadrature':>10} {'runs':>5} {'cell-steps/s':>13} "
                f"{'us/cell-step':>12} {'CPU time of these runs':>23}")
@@ -375,6 +377,9 @@ def bench(config, compare, steps, warm, threads, workers, as_json):
     click.echo(f"sweep ({len(cfg.runs())} runs, {cfg.run.steps} steps each, its own quadratures): "
                f"{format_duration(cpu)} of CPU at {threads} thread(s) per run, writing included; "
                f"about {format_duration(wall)} wall on {processes} process(es)")
+    if share < 0.9:
+        click.echo(f"note: other jobs share this machine (this process gets {share:.0%} of a core now); the times "
+                   "above assume free cores: `fcsweep simulate --dry-run` estimates at the load it sees")
 
 
 @cli.command()
