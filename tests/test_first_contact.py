@@ -161,3 +161,19 @@ def test_cost_model_adds_overheads_and_shares_the_core():
 def test_compile_command_names_the_cache():
     r = invoke("compile")
     assert r.exit_code == 0 and "cache" in r.output and ".cache" in r.output or "fcsweep-" in r.output
+
+
+def test_first_use_says_it_compiles_before_any_run(monkeypatch, tmp_path):
+    """On a cold cache, simulate announces the compilation (naming the cache), reports
+    elapsed time, and does it before the first run starts (so no run is charged)."""
+    monkeypatch.setattr("fcsweep.sweep.warmup.kernels_cached", lambda: False)  # as on first use
+    lines = []
+    from fcsweep.sweep.warmup import cache_dir, compile_kernels
+
+    compile_kernels(lines.append, tick=0.01)
+    assert lines[0].startswith(f"compiling kernels (first use, cached in {cache_dir()})")
+    assert any(line.startswith("compiling kernels ... ") for line in lines[1:-1])
+    assert lines[-1].startswith("kernels compiled in")
+    r = invoke("simulate", SMOKE, "-o", tmp_path / "s", "--log-every", "0")
+    assert r.exit_code == 0, r.output
+    assert r.output.index("compiling kernels (first use") < r.output.index("[1/4]")
