@@ -166,11 +166,17 @@ def test_compile_command_names_the_cache():
 def test_first_use_says_it_compiles_before_any_run(monkeypatch, tmp_path):
     """On a cold cache, simulate announces the compilation (naming the cache), reports
     elapsed time, and does it before the first run starts (so no run is charged)."""
-    monkeypatch.setattr("fcsweep.sweep.warmup.kernels_cached", lambda: False)  # as on first use
-    lines = []
+    import time
+
+    from fcsweep.simulation import Simulation
     from fcsweep.sweep.warmup import cache_dir, compile_kernels
 
-    compile_kernels(lines.append, tick=0.01)
+    monkeypatch.setattr("fcsweep.sweep.warmup.kernels_cached", lambda: False)  # as on first use
+    lines = []
+    advance = Simulation.advance
+    with monkeypatch.context() as m:  # a compilation takes time (here: loaded kernels, so pretend)
+        m.setattr(Simulation, "advance", lambda self, n: (time.sleep(0.1), advance(self, n)))
+        compile_kernels(lines.append, tick=0.02)
     assert lines[0].startswith(f"compiling kernels (first use, cached in {cache_dir()})")
     assert any(line.startswith("compiling kernels ... ") for line in lines[1:-1])
     assert lines[-1].startswith("kernels compiled in")
