@@ -1,13 +1,17 @@
-"""Command line: ``fcsweep simulate | status | list-runs | validate | bench | analyze | aggregate | plot``.
+"""Command line, in the order of the work: ``fcsweep validate | bench | simulate | status |
+analyze | aggregate | plot | movie``, and the helpers ``list-runs`` and ``compile``.
 
 Every command takes an optional CONFIG (a sweep YAML file); without one it uses the
 built-in demo sweep (``fcsweep/data/smoke.yaml``, identical to ``configs/smoke.yaml``),
-which writes to ``./fcsweep-demo``.
+which writes to ``./fcsweep-demo``.  Every command that reads or writes a sweep prints
+the output directory it resolved.
 
-Exit codes: 0 success; 1 some run failed or was left unfinished (the others completed);
-2 invalid config or usage, or not enough disk space (nothing was written); 128 + signal
-number when stopped by a signal (SIGINT 130, SIGTERM 143, SIGUSR1 138) after every
-running run wrote a checkpoint.
+Exit codes: 0 success; 1 some run failed or was left unfinished (the others completed),
+or a results command (status, analyze, aggregate, plot, movie) found nothing to work on
+in the output directory (nothing was written), or aggregate found finished runs without
+a usable analysis; 2 invalid config or usage, or not enough disk space (nothing was
+written); 128 + signal number when stopped by a signal (SIGINT 130, SIGTERM 143,
+SIGUSR1 138) after every running run wrote a checkpoint.
 """
 
 from __future__ import annotations
@@ -44,10 +48,71 @@ def _load(config: str | None, output: str | None = None, *, to_run: bool = False
     return cfg
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+#: Order of the commands in ``--help``: the order of the work, then the helpers.
+COMMAND_ORDER = ("validate", "bench", "simulate", "status", "analyze", "aggregate", "plot", "movie",
+                 "list-runs", "compile")
+
+
+class WorkflowGroup(click.Group):
+    """A group that lists its commands in :data:`COMMAND_ORDER`, not alphabetically."""
+
+    def list_commands(self, ctx):
+        rank = {name: i for i, name in enumerate(COMMAND_ORDER)}
+        return sorted(self.commands, key=lambda n: (rank.get(n, len(rank)), n))
+
+
+def _rows(cfg, *, verify: bool = False):
+    """:func:`fcsweep.sweep.status.collect_status` with the analysis settings that
+    `fcsweep analyze` would use now, so that analyses made with others read ``stale``."""
+    from fcsweep.analysis.pipeline import settings_with
+    from fcsweep.sweep.status import collect_status
+
+    return collect_status(cfg, analysis_settings=settings_with(transient=cfg.run.transient), verify=verify)
+
+
+def _say(msg: str) -> None:
+    click.echo(f"fcsweep: {msg}", err=True)
+
+
+def _announce(cfg: SweepConfig) -> Path:
+    """Print and return the resolved output directory of ``cfg``."""
+    out = Path(cfg.output).resolve()
+    _say(f"output directory {out}")
+    return out
+
+
+def _nothing(msg: str) -> None:
+    """A results command found nothing to work on: say so and exit 1 (nothing written)."""
+    _say(msg)
+    sys.exit(1)
+
+
+def _config_arg(config: str | None, output: str | None) -> str:
+    """How the user named the sweep, for advice lines (``configs/x.yaml -o out``)."""
+    return " ".join(x for x in (config or "", f"-o {output}" if output else "") if x)
+
+
+def _wrong_dir_hint(config, output) -> str:
+    if config or output:
+        return "is this the config (and -o) that wrote the sweep?"
+    return "without CONFIG every command uses the built-in demo in ./fcsweep-demo; give your sweep's config"
+
+
+@click.group(cls=WorkflowGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(package_name="fcsweep")
 def cli() -> None:
-    """Simulate and sweep the Fourier contour cell model of active deformable cells."""
+    """Simulate and sweep the Fourier contour cell model of active deformable cells.
+
+    \b
+    A sweep, step by step (without CONFIG: the built-in demo, into ./fcsweep-demo):
+      fcsweep validate CONFIG     check the config, count the runs
+      fcsweep bench CONFIG        time the step here, estimate the sweep's cost
+      fcsweep simulate CONFIG     compute the runs (--dry-run: what it would do)
+      fcsweep status CONFIG       runs done / running / failed, analysed or not
+      fcsweep analyze CONFIG      observables of every finished run
+      fcsweep aggregate CONFIG    one phase_diagram.nc
+      fcsweep plot CONFIG         figures; `fcsweep movie RUN CONFIG` for a movie
+    """
 
 
 @cli.command()
@@ -67,11 +132,15 @@ def cli() -> None:
 @click.option("--log-every", type=click.FloatRange(min=0), default=30.0, show_default=True,
               help="Seconds between progress lines when stderr is not a terminal.")
 @click.option("--quiet", "-q", is_flag=True, help="No progress output; only the summary.")
+@click.option("--dry-run", "-n", is_flag=True,
+              help="Say which runs would start, resume or be skipped, with the estimated CPU and wall "
+                   "time; write nothing.")
 def simulate(config, output, workers, executor, scheduler, task_index, retry_failed, force,
-             lock_timeout, log_every, quiet):
+             lock_timeout, log_every, quiet, dry_run):
     """Compute the runs of a sweep (skips done runs, resumes interrupted ones).
 
-    Without CONFIG, runs the built-in demo sweep into ./fcsweep-demo.
+    Without CONFIG, runs the built-in demo sweep into ./fcsweep-demo.  The first use
+    compiles the numba kernels (minutes; cached afterwards, see `fcsweep compile`).
     """
     from fcsweep.io.locks import DEFAULT_STALE_AFTER
     from fcsweep.sweep.executors import run_sweep, select_runs
@@ -106,17 +175,27 @@ def simulate(config, output, workers, executor, scheduler, task_index, retry_fai
     if note:
         click.echo(f"fcsweep: warning: {note}", err=True)
     src = config or f"built-in demo ({builtin_demo_path().name})"
-    click.echo(f"fcsweep: {len(specs)} run(s) of {src} -> {cfg.output} [{executor}"
+    out_dir = Path(cfg.output).resolve()
+    stale_after = lock_timeout or DEFAULT_STALE_AFTER
+    if dry_run:
+        _dry_run(cfg, specs, src, out_dir, workers if executor == "process" else 1, force, retry_failed,
+                 stale_after, _config_arg(config, output))
+        return
+    click.echo(f"fcsweep: {len(specs)} run(s) of {src} -> {out_dir} [{executor}"
                f"{', ' + str(workers) + ' workers' if executor == 'process' else ''}]", err=True)
     from fcsweep.sweep import interrupt
     from fcsweep.sweep.executors import unfinished
 
+    if executor != "dask" and _any_to_compute(cfg, specs, force):  # Dask workers compile on their hosts
+        from fcsweep.sweep.warmup import compile_kernels
+
+        compile_kernels(None if quiet else _say)
     progress = Progress(len(specs), log_every=log_every, enabled=not quiet)
     previous = interrupt.install()
     try:
         outcomes = run_sweep(cfg, specs, executor=executor, workers=workers, scheduler=scheduler,
                              progress=progress, force=force, retry_failed=retry_failed,
-                             stale_after=lock_timeout or DEFAULT_STALE_AFTER)
+                             stale_after=stale_after)
     except (OSError, TimeoutError) as exc:
         if executor != "dask":
             raise
@@ -146,10 +225,79 @@ def simulate(config, output, workers, executor, scheduler, task_index, retry_fai
         click.echo(f"  unfinished: run {o.index} {o.run_id}: its lock holder stopped without finishing "
                    f"({o.message}); the next launch computes it", err=True)
     if counts["failed"]:
-        click.echo("fcsweep: some runs failed; fix the cause and rerun (I/O failures resume by themselves, "
-                   "others need --retry-failed)", err=True)
+        for line in _failure_advice(outcomes, _config_arg(config, output)):
+            _say(line)
     if counts["failed"] or lost:
         sys.exit(1)
+
+
+def _any_to_compute(cfg, specs, force: bool) -> bool:
+    """Whether some selected run is not done yet (then the kernels are needed)."""
+    from fcsweep.io.status import read_status
+
+    return bool(specs) and (force or any((read_status(cfg.run_dir(s.run_id)) or {}).get("status") != "done"
+                                         for s in specs))
+
+
+#: Part of the runner's message for a run directory written with other run settings.
+_CONFLICT = "computed with other run settings"
+
+
+def _failure_advice(outcomes, arg: str) -> list[str]:
+    """Advice that fits the failures: other settings (--force / -o) or errors (--retry-failed)."""
+    cmd = f"fcsweep simulate {arg}".rstrip()
+    failed = [o for o in outcomes if o.outcome == "failed"]
+    conflicts = [o for o in failed if _CONFLICT in o.message]
+    out = []
+    if conflicts:
+        out.append(f"{len(conflicts)} run(s) were computed with other run settings than the config has now: "
+                   f"`{cmd} --force` recomputes them, or give another output directory (-o)")
+    if len(conflicts) < len(failed):
+        out.append(f"{len(failed) - len(conflicts)} run(s) failed: fix the cause and rerun with "
+                   f"`{cmd} --retry-failed`")
+    return out
+
+
+def _dry_run(cfg, specs, src, out_dir, processes, force, retry_failed, stale_after, arg) -> None:
+    """Print what `simulate` would do and what it would cost; write nothing."""
+    from fcsweep.sweep.bench import STARTUP_CPU_S, estimate_costs, wall_time
+    from fcsweep.sweep.plan import ACTIONS, plan_runs
+    from fcsweep.sweep.progress import format_duration
+
+    plans = plan_runs(cfg, specs, force=force, retry_failed=retry_failed, stale_after=stale_after)
+    click.echo(f"dry run: {len(specs)} run(s) of {src} -> {out_dir} (nothing is written)")
+    work = [p for p in plans if p.steps_left > 0]
+    costs, share, source = estimate_costs(cfg, work, log=_say) if work else ([], 1.0, "")
+    cost = {p.spec.index: c for p, c in zip(work, costs)}
+    click.echo(f"{'idx':>4}  {'run_id':12}  {'action':8}  {'from step':>9}  {'steps':>9}  {'est. wall':>9}  "
+               "parameters")
+    for p in plans:
+        est = format_duration(cost[p.spec.index][1]) if p.spec.index in cost else ""
+        click.echo(f"{p.spec.index:>4}  {p.spec.run_id:12}  {p.action:8}  {p.from_step:>9}  {p.steps_left:>9}  "
+                   f"{est:>9}  {p.spec.label()}" + (f"  ({p.note})" if p.note else ""))
+    n = {a: sum(p.action == a for p in plans) for a in ACTIONS}
+    click.echo(", ".join(f"{n[a]} to {a}" if a in ("start", "resume", "skip") else f"{n[a]} {a}"
+                         for a in ACTIONS if n[a] or a in ("start", "resume", "skip")))
+    if work:
+        cpu = STARTUP_CPU_S + sum(c for c, _ in costs)
+        wall = STARTUP_CPU_S / share + wall_time([w for _, w in costs], processes)
+        click.echo(f"estimated {format_duration(cpu)} of CPU and about {format_duration(wall)} of wall time on "
+                   f"{processes} process(es), start-up included [{source}]")
+    for line in _plan_advice(n, arg):
+        click.echo(line)
+
+
+def _plan_advice(n: dict, arg: str) -> list[str]:
+    cmd = f"fcsweep simulate {arg}".rstrip()
+    out = []
+    if n["blocked"]:
+        out.append(f"{n['blocked']} run(s) hold results of other run settings: `{cmd} --force` recomputes them, "
+                   "or give another output directory (-o)")
+    if n["failed"]:
+        out.append(f"{n['failed']} run(s) failed earlier and are not rerun: `{cmd} --retry-failed`")
+    if n["locked"]:
+        out.append(f"{n['locked']} run(s) are being computed by another process")
+    return out
 
 
 @cli.command()
@@ -159,16 +307,26 @@ def simulate(config, output, workers, executor, scheduler, task_index, retry_fai
 @click.option("--verify", is_flag=True,
               help="Read every checksum of finished trajectories; mark damaged ones corrupt (exit 1).")
 def status(config, output, as_json, verify):
-    """Table of runs: done / running / interrupted / failed / corrupt / pending, with progress."""
-    from fcsweep.sweep.status import collect_status, format_status
+    """Table of runs: done / running / interrupted / failed / corrupt / pending, with
+    progress, whether each is analysed (yes / stale / no), and what to do next."""
+    from fcsweep.sweep.status import advice, format_status
 
     cfg = _load(config, output)
-    rows = collect_status(cfg, verify=verify)
+    out = Path(cfg.output).resolve() if as_json else _announce(cfg)  # --json: only JSON
+    rows = _rows(cfg, verify=verify)
+    started = any(r["state"] != "pending" or r["steps_done"] for r in rows)
     if as_json:
         click.echo(json.dumps(rows, indent=1))
-    else:
-        click.echo(f"sweep {cfg.output}")
-        click.echo(format_status(rows))
+    elif started:
+        click.echo(f"sweep {out}")
+        *table, summary = format_status(rows).splitlines()
+        click.echo("\n".join(table))
+        for line in advice(rows, _config_arg(config, output)):
+            click.echo(f"next: {line}")
+        click.echo(summary)  # the last line, as scripts expect
+    if not started:
+        _nothing(f"nothing simulated in {out}: all {len(rows)} runs are pending "
+                 f"({_wrong_dir_hint(config, output)})")
     if verify and any(r["state"] == "corrupt" for r in rows):
         sys.exit(1)
 
@@ -192,16 +350,6 @@ def list_runs(config, count, as_json):
         click.echo(f"{s.index:>5}  {s.run_id}  {s.label()}")
 
 
-def _duration(seconds: float) -> str:
-    if seconds < 10:
-        return f"{seconds:.1f} s"
-    if seconds < 120:
-        return f"{seconds:.0f} s"
-    if seconds < 7200:
-        return f"{seconds / 60:.0f} min"
-    return f"{seconds / 3600:.1f} h"
-
-
 @cli.command()
 @CONFIG_ARG
 @click.option("--compare", "-c", multiple=True, type=click.Choice(["binary", "linear", "arc"]),
@@ -218,31 +366,39 @@ def _duration(seconds: float) -> str:
 def bench(config, compare, steps, warm, threads, workers, as_json):
     """Time the step on this machine for each cost setting of a sweep and estimate the
     sweep's CPU and wall time (without CONFIG: the built-in demo)."""
-    from fcsweep.sweep.bench import bench_sweep
+    from fcsweep.sweep.bench import bench_sweep, cpu_share, sweep_seconds, wall_time
     from fcsweep.sweep.layout import worker_layout
+    from fcsweep.sweep.progress import format_duration
+    from fcsweep.sweep.warmup import compile_kernels
 
     cfg = _load(config, to_run=True)
-    log = None if as_json else (lambda msg: click.echo(f"fcsweep: {msg}", err=True))
+    log = None if as_json else _say
+    compile_kernels(log)
     rows = bench_sweep(cfg, steps=steps, warm=warm, quadratures=list(compare) or None, threads=threads, log=log)
-    own = [r for r in rows if r.own]  # the sweep's time: its own rules, not the --compare ones
-    cpu = sum(r.cpu_seconds for r in own)
+    per_run = sweep_seconds(cfg, [r for r in rows if r.own])  # its own rules, not the --compare ones
+    cpu = sum(c for c, _ in per_run)
     processes, _ = worker_layout(workers)
-    wall = max(cpu / processes, max(r.cpu_seconds / r.runs for r in own))  # no run is split
+    wall = wall_time([w for _, w in per_run], processes)
+    share = cpu_share()
     if as_json:
         click.echo(json.dumps({"rows": [{**r.setting, "runs": r.runs, "cell_steps": r.cell_steps,
                                          "cell_steps_per_s": r.rate, "cpu_seconds": r.cpu_seconds} for r in rows],
                                "sweep_cpu_seconds": cpu, "processes": processes,
-                               "sweep_wall_seconds": wall, "threads": threads}, indent=1))
+                               "sweep_wall_seconds": wall, "threads": threads, "cpu_share_now": share},
+                              indent=1))
         return
     click.echo(f"{'N':>6} {'modes':>5} {'K':>4} {'quadrature':>10} {'runs':>5} {'cell-steps/s':>13} "
                f"{'us/cell-step':>12} {'CPU time of these runs':>23}")
     for r in rows:
         st = r.setting
         click.echo(f"{st['N']:>6} {st['modes']:>5} {st['contour_points']:>4} {st['quadrature']:>10} {r.runs:>5} "
-                   f"{r.rate:>13.3e} {1e6 / r.rate:>12.3f} {_duration(r.cpu_seconds):>23}")
+                   f"{r.rate:>13.3e} {1e6 / r.rate:>12.3f} {format_duration(r.cpu_seconds):>23}")
     click.echo(f"sweep ({len(cfg.runs())} runs, {cfg.run.steps} steps each, its own quadratures): "
-               f"{_duration(cpu)} of CPU at {threads} thread(s) per run; about {_duration(wall)} "
-               f"wall on {processes} process(es)")
+               f"{format_duration(cpu)} of CPU at {threads} thread(s) per run, writing included; "
+               f"about {format_duration(wall)} wall on {processes} process(es)")
+    if share < 0.9:
+        click.echo(f"note: other jobs share this machine (this process gets {share:.0%} of a core now); the times "
+                   "above assume free cores: `fcsweep simulate --dry-run` estimates at the load it sees")
 
 
 @cli.command()
@@ -252,7 +408,19 @@ def validate(config):
     cfg = _load(config, to_run=True)
     click.echo(f"{config}: OK, {len(cfg.runs())} runs "
                f"({' x '.join(f'{k}[{len(v)}]' for k, v in cfg.grid.items())} x {cfg.replicates} replicate(s)), "
-               f"{cfg.run.steps} steps each, output {cfg.output}")
+               f"{cfg.run.steps} steps each, output {Path(cfg.output).resolve()}")
+
+
+@cli.command("compile")
+def compile_cmd():
+    """Compile the numba kernels now (once per fcsweep version; `simulate` does it
+    otherwise on first use) and say where they are cached."""
+    from fcsweep.sweep.warmup import cache_dir, compile_kernels, kernels_cached
+
+    was = kernels_cached()
+    seconds = compile_kernels(_say)
+    state = "already compiled; loaded" if was else "compiled"
+    click.echo(f"kernels {state} in {seconds:.1f} s; cache {cache_dir()}")
 
 
 @cli.command()
@@ -263,8 +431,18 @@ def validate(config):
 def analyze(config, output, workers, force):
     """Analyse every finished run (writes analysis.h5 beside each trajectory)."""
     from fcsweep.analysis.pipeline import analyze_sweep
+    from fcsweep.sweep.status import summary_line
 
     cfg = _load(config, output)
+    out = _announce(cfg)
+    rows = _rows(cfg)
+    if not any(r["state"] == "done" for r in rows):
+        _nothing(f"nothing to analyse in {out}: no run is done ({summary_line(rows)}; "
+                 f"{_wrong_dir_hint(config, output)})")
+    old = [r for r in rows if r.get("outdated")]
+    if old:
+        _say(f"{len(old)} done run(s) were computed with other run settings than this config "
+             f"({old[0]['outdated']}); they are analysed as they are")
     results = analyze_sweep(cfg, workers=workers, force=force)
     failed = 0
     for run_id, st, msg in results:
@@ -274,6 +452,19 @@ def analyze(config, output, workers, force):
         sys.exit(1)
 
 
+def _analysed(cfg) -> tuple[int, str]:
+    """Number of done runs with an analysis.h5 (up to date or stale), and what to do
+    when there is none: analyse the done runs, or simulate, or look elsewhere."""
+    rows = _rows(cfg)
+    n = sum(r["analysis"] in ("yes", "stale") for r in rows)
+    done = sum(r["state"] == "done" for r in rows)
+    if done:
+        return n, f"{done} run(s) are done but not analysed: `fcsweep analyze` first"
+    if any(r["state"] != "pending" for r in rows):
+        return n, "no run is done yet (see `fcsweep status`)"
+    return n, "nothing simulated here"
+
+
 @cli.command()
 @CONFIG_ARG
 @OUTPUT_OPT
@@ -281,13 +472,21 @@ def aggregate(config, output):
     """Collect per-run analyses into <output>/phase_diagram.nc."""
     import xarray as xr
 
-    from fcsweep.analysis.aggregate import aggregate_sweep, unanalysed_runs
+    from fcsweep.analysis.aggregate import aggregate_sweep, replicate_error_check, unanalysed_runs
 
     cfg = _load(config, output)
+    out = _announce(cfg)
+    n, why = _analysed(cfg)
+    if not n:
+        _nothing(f"nothing to aggregate in {out}: {why} ({_wrong_dir_hint(config, output)})")
     path = aggregate_sweep(cfg)
     click.echo(str(path))
     with xr.open_dataset(path) as ds:
         missing = unanalysed_runs(ds)
+        check = replicate_error_check(ds)
+    for name, (chi2, points) in check.items():
+        click.echo(f"replicate check: {name} chi2/dof median {chi2:.2f} over {points} point(s)"
+                   + (" -- per-run errors look too small" if chi2 > 2 else ""))
     if missing:
         click.echo(f"{len(missing)} finished run(s) have no usable analysis (NaN in the dataset): "
                    + ", ".join(f"{r} ({w})" for r, w in missing) + "; see `fcsweep analyze`", err=True)
@@ -301,12 +500,73 @@ def aggregate(config, output):
 @click.option("--frame", type=int, default=-1, show_default=True, help="Frame for snapshot plots.")
 @click.option("--outdir", type=click.Path(file_okay=False), default=None, help="Where figures go.")
 def plot(config, output, run, frame, outdir):
-    """Figures of the sweep (phase diagram) or of one run."""
-    from fcsweep.analysis.figures import plot_sweep
+    """Figures of the sweep (phase diagram and companions) or a snapshot of one run."""
+    from fcsweep.analysis.figures import NothingToPlot, plot_sweep
+    from fcsweep.analysis.pipeline import DATASET_FILE
 
     cfg = _load(config, output)
-    for p in plot_sweep(cfg, run=run, frame=frame, outdir=Path(outdir) if outdir else None):
+    out = _announce(cfg)
+    if run is not None:
+        _trajectory_or_exit(cfg, run, out, config, output)
+    elif not (out / DATASET_FILE).exists():
+        n, why = _analysed(cfg)
+        if not n:
+            _nothing(f"nothing to plot in {out}: no phase_diagram.nc, {why} ({_wrong_dir_hint(config, output)})")
+    try:
+        paths = plot_sweep(cfg, run=run, frame=frame, outdir=Path(outdir) if outdir else None)
+    except NothingToPlot as exc:
+        _nothing(str(exc))
+    for p in paths:
         click.echo(str(p))
+
+
+def _trajectory_or_exit(cfg, run, out, config, output) -> Path:
+    """The finished trajectory of run ``run``; exit 2 for an unknown run, 1 if not done."""
+    from fcsweep.analysis.figures import run_trajectory
+
+    try:
+        traj = run_trajectory(cfg, run)
+    except ValueError as exc:
+        _say(str(exc))
+        sys.exit(2)
+    if not traj.exists():
+        _nothing(f"run {run} has no finished trajectory in {out} ({traj.parent.name}; "
+                 f"{_wrong_dir_hint(config, output)})")
+    return traj
+
+
+@cli.command()
+@click.argument("run")
+@CONFIG_ARG
+@OUTPUT_OPT
+@click.option("--fps", type=click.IntRange(min=1, max=120), default=10, show_default=True,
+              help="Movie frames per second.")
+@click.option("--every", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Use every k-th recorded frame.")
+@click.option("--dpi", type=click.IntRange(min=50, max=600), default=120, show_default=True,
+              help="Resolution of the rendered frames.")
+@click.option("--out", "out_file", type=click.Path(dir_okay=False), default=None,
+              help="Movie file [<run directory>/movie.mp4].")
+def movie(run, config, output, fps, every, dpi, out_file):
+    """MP4 movie of one run: contours coloured by q, defects marked, with a progress bar.
+
+    RUN is a run id or index of the sweep CONFIG (default: the built-in demo), or the
+    path of a trajectory.h5.  Needs the `movie` extra: pip install 'fcsweep[movie]'.
+    """
+    from fcsweep.analysis.figures import movie_run
+
+    if run.endswith(".h5") and Path(run).is_file():
+        traj = Path(run)
+    else:
+        cfg = _load(config, output)
+        out = _announce(cfg)
+        traj = _trajectory_or_exit(cfg, run, out, config, output)
+    try:
+        path = movie_run(traj, out_file, fps=fps, every=every, dpi=dpi)
+    except ImportError as exc:
+        _say(str(exc))
+        sys.exit(2)
+    click.echo(str(path))
 
 
 def main() -> None:

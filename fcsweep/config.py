@@ -68,7 +68,7 @@ class ConfigError(ValueError):
     """An invalid sweep configuration; the message names key, value and what is allowed."""
 
 
-#: Model parameters and their defaults (MODEL.md); ``None`` means "must be given".
+#: Model parameters and their defaults (docs/model.md); ``None`` means "must be given".
 MODEL_DEFAULTS: dict[str, Any] = {
     "N": None,
     "eta": None,

@@ -32,7 +32,7 @@ from .model.shape import ADMISSIBLE_BOUND, PROJECTION_MARGIN, contour_points_pro
 CHUNK = 256
 #: Fraction of cell-steps projected back onto the admissibility bound, within one chunk,
 #: above which advance() warns: shapes pinned at the bound are a sign of too large a dt
-#: (MODEL.md: at eta = 0.03, dt = 0.2 gives <q> = 4.5 instead of 3.7 while staying finite).
+#: (docs/model.md: at eta = 0.03, dt = 0.2 gives <q> = 4.5 instead of 3.7 while staying finite).
 PINNED_WARNING = 0.25
 #: Cells per thread below which extra threads cost more in synchronisation (three
 #: parallel regions per step) than they save; results do not depend on the threads.
@@ -47,7 +47,7 @@ class SimulationError(RuntimeError):
 class SimParams:
     """Every parameter that determines a run (with ``seed``).
 
-    Defaults are those of MODEL.md; ``Dr`` is not given in the paper (see MODEL.md).
+    Defaults are those of docs/model.md; ``Dr`` is not given in the paper (see docs/model.md).
     """
 
     N: int
@@ -132,7 +132,7 @@ class State:
 class Simulation:
     """Euler-Maruyama integration of N cells; noise from a PCG64 Generator.
 
-    Use :meth:`from_lattice` for MODEL.md's initial state, :meth:`advance` to integrate,
+    Use :meth:`from_lattice` for docs/model.md's initial state, :meth:`advance` to integrate,
     and :meth:`to_checkpoint` / :meth:`from_checkpoint` (or :meth:`save` / :meth:`load`)
     to continue a run bit for bit.
     """

@@ -219,7 +219,8 @@ def test_status_shows_pending_interrupted_and_progress(done_sweep, tmp_path):
     path, _ = done_sweep
     out = tmp_path / "st"
     r = CliRunner().invoke(cli, ["status", str(path), "-o", str(out)])
-    assert r.exit_code == 0 and "4 runs: 0 done, 0 running, 0 interrupted, 0 failed, 0 corrupt, 4 pending" in r.output
+    assert r.exit_code == 1 and f"nothing simulated in {out.resolve()}: all 4 runs are pending" in r.output
+    assert not out.exists()
     cfg = load_config(path).with_output(out)
     spec = cfg.runs()[0]
     d = cfg.run_dir(spec.run_id)

@@ -13,7 +13,7 @@ percolation  Fisher exponent of defect cluster sizes, calibrated on exact percol
 trajectory reading one H5MD trajectory (file access, used by the pipeline only)
 pipeline   analyze_run / analyze_sweep (files)
 aggregate  build_dataset / aggregate_sweep: per-run files -> phase_diagram.nc
-figures    plot_sweep: figures of a sweep or a run snapshot
+figures    drawing (dataset or arrays -> Figure) and plot_sweep / snapshot_run / movie_run (files)
 
 Only :mod:`trajectory`, :mod:`pipeline`, :mod:`aggregate` and :mod:`figures` touch files; everything else takes and
 returns numpy arrays so that it can be tested with known answers.

@@ -303,7 +303,7 @@ def build_dataset(config) -> xr.Dataset:
         "source": f"fcsweep {__version__}",
         "fcsweep_version": __version__,
         "history": f"{now} fcsweep aggregate {getattr(config, 'source', '')}".strip(),
-        "references": "Fourier contour cell model; observables as defined in MODEL.md",
+        "references": "Fourier contour cell model; observables as defined in docs/model.md",
         "config": json.dumps(cfg, sort_keys=True, default=str),
         "analysis_settings": json.dumps(settings or {}, sort_keys=True),
         "curve_alignment": "curve coordinates are the union over runs; NaN where a run has no value (no interpolation)",

@@ -1,4 +1,4 @@
-"""Long-time self-diffusion from the MSD: D_s, D0 and D_eff (MODEL.md, Observables).
+"""Long-time self-diffusion from the MSD: D_s, D0 and D_eff (docs/model.md, Observables).
 
 :func:`estimate_diffusion` cuts the analysed span into time blocks at least a few
 persistence times long, fits the active-Brownian MSD form

@@ -4,7 +4,7 @@ The estimator is
 
     MSD(m) = < |r_i(k+m) - r_i(k)|^2 >_{i,k}  -  | < r_i(k+m) - r_i(k) >_{i,k} |^2
 
-(the variance form of MODEL.md), computed on drift-subtracted trajectories
+(the variance form of docs/model.md), computed on drift-subtracted trajectories
 ``r_i(t) - r_i(0) - [C(t) - C(0)]`` with ``C(t)`` the centre of mass of all cells at
 frame t.  After drift subtraction the mean displacement vanishes identically, so the
 second term only matters when ``subtract_drift=False``.  For N independent particles

@@ -1,7 +1,7 @@
 """Hexatic order and correlation functions (freud), positions in a periodic 2-D box.
 
 - ``psi6_i = (1/n_i) sum_j exp(6 i theta_ij)`` over the Voronoi neighbours (unweighted,
-  MODEL.md), via ``freud.order.Hexatic(k=6)`` on the Voronoi neighbour list.
+  docs/model.md), via ``freud.order.Hexatic(k=6)`` on the Voronoi neighbour list.
 - ``|Psi6| = |mean_i psi6_i|``; the mean hexatic orientation is ``arg(Psi6) / 6``.
 - ``G6(r) = Re < psi6_i psi6_j^* >`` over pairs at distance in ``[r, r + dr)``
   (``freud.density.CorrelationFunction``); bins without pairs are NaN.

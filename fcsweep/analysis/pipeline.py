@@ -2,7 +2,7 @@
 
 Entry points called by the CLI (``fcsweep analyze | aggregate | plot``):
 
-- :func:`analyze_run` reads one trajectory, computes every observable of MODEL.md over the
+- :func:`analyze_run` reads one trajectory, computes every observable of docs/model.md over the
   frames after the transient and writes ``analysis.h5`` beside it (atomically);
 - :func:`analyze_sweep` does that for every finished run of a sweep, in parallel,
   skipping runs analysed with the same settings unless ``force``;

@@ -3,7 +3,7 @@
 The tessellation is freud's (voro++) in a 2-D periodic box.  freud boxes are centred at
 the origin; positions given in ``[0, Lx) x [0, Ly)`` are shifted by half the box.
 A cell's neighbour count is its number of Voronoi edges (sides).  A defect is a cell
-with a count different from 6 (MODEL.md); ``rho_d`` = defects / N.  Defect clusters are
+with a count different from 6 (docs/model.md); ``rho_d`` = defects / N.  Defect clusters are
 connected components of defect cells over Voronoi adjacency
 (``scipy.sparse.csgraph.connected_components``).
 """

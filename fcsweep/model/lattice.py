@@ -1,4 +1,4 @@
-"""Initial hexagonal lattice and periodic box of MODEL.md (pure numpy)."""
+"""Initial hexagonal lattice and periodic box of docs/model.md (pure numpy)."""
 
 from __future__ import annotations
 

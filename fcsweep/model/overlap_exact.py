@@ -25,7 +25,7 @@ Energy and rates
 ----------------
 ``exact_energy`` = Σ_{i<j} A(i∩j) + η Σ_i P_i.  ``reference_rates`` differentiates it by
 a 4-point central stencil (error O(h^4)) per cell variable, holding the area fixed
-(a0 re-derived from the modes), and returns the deterministic rates of MODEL.md:
+(a0 re-derived from the modes), and returns the deterministic rates of docs/model.md:
 dr_i/dt = v0 e(θ_i) − ∂H/∂r_i, dθ_i/dt = −μθ ∂H/∂θ_i, da_n/dt = −μs ∂H/∂a_n, likewise b_n.
 """
 
@@ -452,7 +452,7 @@ _STENCIL = ((-2.0, 1.0 / 12.0), (-1.0, -8.0 / 12.0), (1.0, 8.0 / 12.0), (2.0, -1
 
 def reference_rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, mu_theta=1.0,
                     mu_shape=1.0, h=1e-4, resolution=1024, shallow_fraction=0.01) -> dict:
-    """Deterministic rates of MODEL.md from finite differences of the exact energy.
+    """Deterministic rates of docs/model.md from finite differences of the exact energy.
 
     Every cell variable v (x, y, θ, a_n, b_n) is perturbed with the 4-point central
     stencil ``[f(−2h) − 8f(−h) + 8f(h) − f(2h)] / 12h`` (truncation O(h⁴)); a0 is
@@ -558,13 +558,13 @@ def reference_rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, mu_theta=1.0
 
 def continuum_rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, mu_theta=1.0,
                     mu_shape=1.0, resolution=2048, gauss_points=64) -> dict:
-    """MODEL.md's rate integrals evaluated on the exact inside arcs (K → ∞ limit).
+    """docs/model.md's rate integrals evaluated on the exact inside arcs (K → ∞ limit).
 
-    The sums Σ_k o_ik f(φ_k) Δφ of MODEL.md become Σ_j ∫_{arcs of i inside j} f(φ) dφ,
+    The sums Σ_k o_ik f(φ_k) Δφ of docs/model.md become Σ_j ∫_{arcs of i inside j} f(φ) dφ,
     integrated with Gauss–Legendre (``gauss_points`` per arc, exact for these smooth
     trigonometric integrands of degree ≤ 2M + 1).  ∂P/∂a_n uses
     :func:`fcsweep.model.shape.perimeter_gradient`.  A loop over pairs: for tests and
-    small N.  Comparing it with :func:`reference_rates` checks MODEL.md's formulas.
+    small N.  Comparing it with :func:`reference_rates` checks docs/model.md's formulas.
 
     Returns
     -------

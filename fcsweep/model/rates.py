@@ -1,10 +1,10 @@
 """Deterministic rates of the Fourier contour cell model: the readable numpy twin.
 
-This module writes out MODEL.md's equations of motion directly, one pair of cells at a
+This module writes out docs/model.md's equations of motion directly, one pair of cells at a
 time, with no cell list and no angular windows.  It is the reference the numba kernels
 in :mod:`fcsweep.kernels` are tested against, and the function notebooks call.
 
-Equations (MODEL.md), with ``o_ik`` the overlap weight of contour point k of cell i:
+Equations (docs/model.md), with ``o_ik`` the overlap weight of contour point k of cell i:
 
     dr_i/dt   = v0 e(theta_i) + sum_k o_ik [ R'_k e_perp(theta_i+phi_k) - R_k e(theta_i+phi_k) ] dphi
     dtheta_i  = mu_theta sum_k o_ik R_k R'_k dphi
@@ -393,7 +393,7 @@ def disc_rates(pos, theta, *, v0, box=None, R0=1.0):
 
 def rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, contour_points=40, quadrature="arc",
           mu_theta=1.0, mu_shape=1.0):
-    """Deterministic time derivatives of MODEL.md (no noise).
+    """Deterministic time derivatives of docs/model.md (no noise).
 
     Parameters
     ----------

@@ -5,12 +5,38 @@ cells have left the lattice; :func:`bench_sweep` does so once per distinct cost 
 a sweep (N, modes, K, quadrature, and the state parameters of the first run with them)
 and turns the rates into the CPU time of the whole sweep.  Rates depend on the state
 (contacts per cell), so a setting is timed at the parameters of its first run.
+
+The cost model of a run (:func:`run_cpu_seconds`, :func:`run_seconds`), used by
+``fcsweep bench`` and ``fcsweep simulate --dry-run``::
+
+    cpu  = RUN_CPU_S + CHECKPOINT_CPU_S x checkpoints + N x steps / rate
+    wall = cpu / share + RUN_IO_S + CHECKPOINT_IO_S x checkpoints
+
+``rate`` is cell-steps per CPU second of the step, ``share`` the fraction of a core the
+process gets on this machine now (CPU time / wall time while timing: on a machine
+shared with other jobs it is well below 1, and it is why a rate timed as "best of 3" on
+the wall clock underestimated runs by 2x); the constants are the CPU time a run spends
+outside the step and per checkpoint, and the time it waits for the disk, measured on
+the 2-core development machine with a local disk (``benchmarks/cost_model.py`` checks
+the model against runs).  :func:`estimate_costs` calibrates ``rate x share`` per cost setting from the
+sweep's own finished runs when there are any, else by timing the step now
+(:func:`probe_cost`).
 """
 
 from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+
+from fcsweep.io.status import read_status
+
+#: CPU seconds a run spends outside the step (trajectory, lock and status files, final
+#: rename) and per checkpoint (frames appended, checkpoint written), and the seconds
+#: each waits for the disk (fsyncs): 2-core development machine, local disk.
+RUN_CPU_S, RUN_IO_S = 0.05, 0.07
+CHECKPOINT_CPU_S, CHECKPOINT_IO_S = 0.02, 0.03
+#: CPU seconds of starting ``fcsweep simulate``: imports, loading the compiled kernels.
+STARTUP_CPU_S = 2.0
 
 #: Parameters that set the cost of one step (besides the state the dynamics reaches).
 COST_KEYS = ("N", "modes", "contour_points", "quadrature")
@@ -92,3 +118,163 @@ def bench_sweep(cfg, *, steps=200, warm=2000, quadratures=None, threads=1, log=N
             rows.append(BenchRow({k: params[k] for k in COST_KEYS}, len(specs), work, rate,
                                  own=rule == base["quadrature"]))
     return rows
+
+
+# ------------------------------------------------------------------ cost model
+
+
+@dataclass(frozen=True)
+class StepCost:
+    """Effective speed of the step for one cost setting.
+
+    ``rate`` is cell-steps per CPU second, ``share`` the fraction of a core the process
+    got (wall speed = rate x share); ``source`` says where the numbers come from.
+    """
+
+    rate: float
+    share: float
+    source: str
+
+    @property
+    def wall_rate(self) -> float:
+        """Cell-steps per wall-clock second."""
+        return self.rate * self.share
+
+
+def run_cpu_seconds(params, steps: int, checkpoints: int, cost: StepCost) -> float:
+    """Estimated CPU seconds of ``steps`` steps of one run with ``params``, writing
+    ``checkpoints`` checkpoints (see the module docstring for the model)."""
+    return RUN_CPU_S + CHECKPOINT_CPU_S * checkpoints + int(params["N"]) * int(steps) / cost.rate
+
+
+def run_seconds(params, steps: int, checkpoints: int, cost: StepCost) -> float:
+    """Estimated wall seconds of the same run: its CPU time at the CPU share of
+    ``cost``, plus the time it waits for the disk."""
+    return (run_cpu_seconds(params, steps, checkpoints, cost) / cost.share
+            + RUN_IO_S + CHECKPOINT_IO_S * checkpoints)
+
+
+def probe_cost(params_list, *, cell_steps: float = 1e5, blocks: int = 3, threads: int | None = None) -> StepCost:
+    """Time the step from the lattice at each of ``params_list`` (the first and last
+    run of a cost setting: the state changes the cost): one block of ``cell_steps``
+    cell-steps to leave the lattice, then ``blocks`` timed blocks.  Returns the pooled
+    rate (all timed cell-steps / their CPU time) and the CPU share of the process over
+    them.  A few seconds per setting on this machine (after compilation)."""
+    import numba
+
+    from fcsweep.simulation import Simulation
+
+    previous = numba.get_num_threads()
+    if threads is not None:
+        numba.set_num_threads(int(threads))
+    work = cpu = wall = 0.0
+    try:
+        for params in params_list:
+            N = int(params["N"])
+            steps = max(int(cell_steps // N), 5)
+            sim = Simulation.from_lattice(**dict(params))
+            sim.advance(steps)
+            threads_used = max(1, min(numba.get_num_threads(), N // 512))
+            c0, w0 = time.process_time(), time.perf_counter()
+            sim.advance(blocks * steps)
+            cpu += (time.process_time() - c0) / threads_used
+            wall += time.perf_counter() - w0
+            work += N * blocks * steps
+    finally:
+        numba.set_num_threads(previous)
+    share = min(cpu / max(wall, 1e-9), 1.0)
+    rate = work / max(cpu, 1e-9)
+    return StepCost(rate, share, f"step timed now: {rate:.3g} cell-steps per CPU s, {share:.0%} of a core free")
+
+
+def cpu_share(seconds: float = 0.5) -> float:
+    """Fraction of a core this process gets now (CPU / wall time of a busy loop)."""
+    c0, w0 = time.process_time(), time.perf_counter()
+    while time.perf_counter() - w0 < seconds:
+        sum(range(10_000))
+    return min((time.process_time() - c0) / max(time.perf_counter() - w0, 1e-9), 1.0)
+
+
+def history_cost(cfg, specs) -> StepCost | None:
+    """The step speed finished runs of ``specs`` reached: their wall time less the
+    model's overheads, at the CPU share this process gets now (assuming the machine is
+    as busy as when they ran); None if none is done."""
+    done = []
+    for spec in specs:
+        st = read_status(cfg.run_dir(spec.run_id)) or {}
+        if st.get("status") == "done" and st.get("wall_seconds") and st.get("steps_done"):
+            done.append((int(spec.params["N"]), int(st["steps_done"]), float(st["wall_seconds"])))
+    if not done:
+        return None
+    share = cpu_share()
+    work = cpu = 0.0
+    for N, steps, wall in done:
+        k = -(-steps // cfg.run.checkpoint_every)
+        step_cpu = (wall - RUN_IO_S - CHECKPOINT_IO_S * k) * share - RUN_CPU_S - CHECKPOINT_CPU_S * k
+        if step_cpu > 0:
+            work += N * steps
+            cpu += step_cpu
+    if not cpu:
+        return None
+    return StepCost(work / cpu, share, f"speed of {len(done)} finished run(s) of this sweep: "
+                    f"{work / cpu * share:.3g} cell-steps per s, {share:.0%} of a core free now")
+
+
+def estimate_costs(cfg, plans, *, log=None) -> tuple[list[tuple[float, float]], float, str]:
+    """Estimated (CPU, wall) seconds of every planned run
+    (:class:`fcsweep.sweep.plan.PlannedRun` with steps left), the CPU share of a core
+    this process gets now, and a line saying how the estimate was calibrated.
+
+    Per cost setting (:data:`COST_KEYS`): the speed of the sweep's finished runs with
+    that setting if there are any, else :func:`probe_cost` at the first run's
+    parameters (compiling the kernels first if needed).
+    """
+    groups: dict[tuple, list] = {}
+    for spec in cfg.runs():
+        groups.setdefault(tuple(spec.params[k] for k in COST_KEYS), []).append(spec)
+    costs: dict[tuple, StepCost] = {}
+    for p in plans:
+        key = tuple(p.spec.params[k] for k in COST_KEYS)
+        if key in costs:
+            continue
+        cost = history_cost(cfg, groups[key])
+        if cost is None:
+            from fcsweep.sweep.warmup import compile_kernels
+
+            compile_kernels(log)
+            if log:
+                log("timing N={} modes={} K={} {} for the estimate ...".format(*key))
+            members = groups[key]
+            cost = probe_cost([members[0].params] + ([members[-1].params] if len(members) > 1 else []))
+        costs[key] = cost
+    out = []
+    for p in plans:
+        cost = costs[tuple(p.spec.params[k] for k in COST_KEYS)]
+        every = cfg.run.checkpoint_every
+        checkpoints = -(-(p.from_step + p.steps_left) // every) - p.from_step // every
+        out.append((run_cpu_seconds(p.spec.params, p.steps_left, checkpoints, cost),
+                    run_seconds(p.spec.params, p.steps_left, checkpoints, cost)))
+    share = min((c.share for c in costs.values()), default=1.0)
+    return out, share, "; ".join(sorted({c.source for c in costs.values()}))
+
+
+def wall_time(seconds, processes: int) -> float:
+    """Wall time of runs taking ``seconds`` each on ``processes`` processes that each take
+    the next run when free (longest first; no run is split)."""
+    free = [0.0] * max(int(processes), 1)
+    for t in sorted(seconds, reverse=True):
+        free[free.index(min(free))] += t
+    return max(free)
+
+
+def sweep_seconds(cfg, rows) -> list[tuple[float, float]]:
+    """Estimated (CPU, wall) seconds of every run of ``cfg`` on a free core, from
+    :func:`bench_sweep` rows of its own quadratures (rates timed on the wall clock)."""
+    speed = {tuple(r.setting[k] for k in COST_KEYS): r.rate for r in rows}
+    checkpoints = -(-cfg.run.steps // cfg.run.checkpoint_every)
+    out = []
+    for s in cfg.runs():
+        cost = StepCost(speed[tuple(s.params[k] for k in COST_KEYS)], 1.0, "bench")
+        out.append((run_cpu_seconds(s.params, cfg.run.steps, checkpoints, cost),
+                    run_seconds(s.params, cfg.run.steps, checkpoints, cost)))
+    return out

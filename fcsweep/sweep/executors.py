@@ -62,6 +62,9 @@ def _init_worker(threads: int) -> None:
     interrupt.install()  # SIGTERM/SIGINT: checkpoint the current run, start no other
     os.environ["NUMBA_NUM_THREADS"] = str(threads)
     _set_numba_threads(threads)
+    from fcsweep.sweep.warmup import compile_kernels
+
+    compile_kernels()  # load the cached kernels now, not inside the first run's wall time
 
 
 def _set_numba_threads(threads: int) -> None:
@@ -171,7 +174,7 @@ def run_sweep(
             o = _task(cfg, spec, force, stale_after, skip_failed,
                       progress=lambda s, step, n: progress.update(s.run_id, s.label(), step, n))
             if not (o.outcome == "interrupted" and o.message == "not started"):
-                progress.run_finished(spec.run_id, _describe(o, spec))
+                progress.run_finished(spec.run_id, _describe(o, spec), computed=o.wall_seconds > 0)
             out.append(o)
         return out
     if executor == "process":
@@ -276,7 +279,7 @@ def _collect(cfg, specs, futs, progress: Progress, width: int, *, done, result, 
                                        f"worker error: {type(exc).__name__}: {exc}")
                 outcomes[i] = o
                 if not (o.outcome == "interrupted" and o.message == "not started"):
-                    progress.run_finished(spec.run_id, _describe(o, spec))
+                    progress.run_finished(spec.run_id, _describe(o, spec), computed=o.wall_seconds > 0)
             else:
                 still.append(i)
         pending = still

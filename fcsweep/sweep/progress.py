@@ -1,4 +1,10 @@
-"""Progress display: tqdm bars on an interactive terminal, plain log lines otherwise."""
+"""Progress display: tqdm bars on an interactive terminal, plain log lines otherwise.
+
+Plain lines (batch logs) carry the rate and an estimated time to completion: per run,
+steps per second since the run was first seen here; for the sweep, the wall time per
+computed run since the sweep started, and the time left for the remaining runs at that
+pace (runs in parallel included, since it is measured on the wall clock).
+"""
 
 from __future__ import annotations
 
@@ -6,7 +12,18 @@ import sys
 import time
 from typing import TextIO
 
-__all__ = ["Progress"]
+__all__ = ["Progress", "format_duration"]
+
+
+def format_duration(seconds: float) -> str:
+    """``42 s``, ``12 min``, ``3.4 h`` (rounded for people, not for scripts)."""
+    if seconds < 10:
+        return f"{seconds:.1f} s"
+    if seconds < 120:
+        return f"{seconds:.0f} s"
+    if seconds < 7200:
+        return f"{seconds / 60:.0f} min"
+    return f"{seconds / 3600:.1f} h"
 
 
 class Progress:
@@ -34,6 +51,9 @@ class Progress:
         self.total = total
         self.log_every = log_every
         self.finished = 0
+        self.computed = 0
+        self._start = time.time()
+        self._first_seen: dict[str, tuple[float, int]] = {}
         self._last_log: dict[str, float] = {}
         self._bars: dict[str, object] = {}
         self._overall = None
@@ -68,21 +88,36 @@ class Progress:
             bar.refresh()
             return
         now = time.time()
+        t0, s0 = self._first_seen.setdefault(key, (now, step))
         if now - self._last_log.get(key, 0.0) >= self.log_every:
             self._last_log[key] = now
             pct = 100.0 * step / max(steps, 1)
-            print(f"[{time.strftime('%H:%M:%S')}] run {key} {label}: step {step}/{steps} ({pct:.0f}%)",
+            rate = (step - s0) / (now - t0) if now > t0 and step > s0 else 0.0
+            tail = f", {rate:.3g} steps/s, ETA {format_duration((steps - step) / rate)}" if rate > 0 else ""
+            print(f"[{time.strftime('%H:%M:%S')}] run {key} {label}: step {step}/{steps} ({pct:.0f}%){tail}",
                   file=self.stream, flush=True)
 
-    def run_finished(self, key: str, msg: str) -> None:
-        """A run is over (done, skipped, locked or failed)."""
+    def run_finished(self, key: str, msg: str, *, computed: bool = True) -> None:
+        """A run is over (done, skipped, locked or failed); ``computed`` is False for runs
+        that took no time (skipped), which do not count towards the rate."""
         self.finished += 1
+        self.computed += bool(computed)
+        self._first_seen.pop(key, None)
         bar = self._bars.pop(key, None)
         if bar is not None:
             bar.close()
         if self._overall is not None:
             self._overall.update(1)
-        self.log(f"[{self.finished}/{self.total}] {msg}")
+        self.log(f"[{self.finished}/{self.total}] {msg}{self._sweep_eta()}")
+
+    def _sweep_eta(self) -> str:
+        """``; 5.0 min per run, about 40 min left`` once a run has been computed here."""
+        left = self.total - self.finished
+        elapsed = time.time() - self._start
+        if self.interactive or not self.computed or not left or elapsed <= 0:
+            return ""
+        per_run = elapsed / self.computed
+        return f"; {format_duration(per_run)} per run, about {format_duration(left * per_run)} left"
 
     def close(self) -> None:
         for bar in self._bars.values():

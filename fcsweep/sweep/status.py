@@ -1,15 +1,24 @@
-"""Status of every run of a sweep, from status.json files and run locks."""
+"""Status of every run of a sweep, from status.json files, run locks and analysis files.
+
+Besides the run state, each row says whether the run is analysed (``analysis``:
+``yes``, ``stale`` -- the trajectory is newer than its analysis.h5 or the analysis used
+another transient than the config --, ``no``, or empty while the run is not done) and,
+for done runs, whether they were computed with other run settings than the config now
+has (``outdated``: e.g. ``steps 2000 -> 4000``).
+"""
 
 from __future__ import annotations
 
+import json
 from collections import Counter
+from pathlib import Path
 from typing import Any
 
 from fcsweep.config import SweepConfig
 from fcsweep.io import schema
 from fcsweep.io.rundir import RunDirectory
 
-__all__ = ["collect_status", "format_status", "summary_line", "STATES"]
+__all__ = ["collect_status", "format_status", "summary_line", "analysis_state", "settings_change", "advice", "STATES"]
 
 #: Displayed states; ``interrupted`` is a run stopped by a signal or a ``running`` status
 #: whose lock is gone or stale (the next ``fcsweep simulate`` resumes it from its
@@ -18,13 +27,18 @@ __all__ = ["collect_status", "format_status", "summary_line", "STATES"]
 STATES = ("done", "running", "interrupted", "failed", "corrupt", "pending")
 
 
-def collect_status(cfg: SweepConfig, *, verify: bool = False) -> list[dict[str, Any]]:
+def collect_status(cfg: SweepConfig, analysis_settings: dict | None = None, *,
+                   verify: bool = False) -> list[dict[str, Any]]:
     """One dict per run: index, run_id, label, state, steps_done, steps, projections,
-    wall_seconds, reason, host.
+    wall_seconds, reason, host, analysis, outdated.
 
-    With ``verify``, every done run's trajectory is read in full (all checksums) and a
-    damaged one is marked ``corrupt`` in its status file (unless a live process holds it).
-    """
+    ``analysis_settings``: the settings ``fcsweep analyze`` would use now (the caller
+    knows them; this layer does not import the analysis); an analysis.h5 made with
+    others is ``stale``.  Without them only the transient is compared. With ``verify``,
+    every done run's trajectory is read in full (all checksums) and a damaged one is
+    marked ``corrupt`` in its status file (unless a live process holds it)."""
+    from fcsweep.sweep.runner import fingerprint_of
+
     rows = []
     for spec in cfg.runs():
         rd = RunDirectory(cfg.run_dir(spec.run_id), spec.run_id, spec.index, spec.params)
@@ -48,9 +62,48 @@ def collect_status(cfg: SweepConfig, *, verify: bool = False) -> list[dict[str, 
                 "wall_seconds": st.get("wall_seconds"),
                 "reason": st.get("reason", ""),
                 "host": lock.get("host") if lock else st.get("host"),
+                "analysis": (analysis_state(rd.path, cfg.run.transient, analysis_settings)
+                             if state == schema.DONE else ""),
+                "outdated": (settings_change(st.get("fingerprint"), fingerprint_of(cfg, spec))
+                             if state == schema.DONE else ""),
             }
         )
     return rows
+
+
+def analysis_state(run_dir, transient: float, settings: dict | None = None) -> str:
+    """``yes``, ``stale`` or ``no``: is the run's ``analysis.h5`` there and up to date --
+    not older than the trajectory, and made with ``settings`` (if given) or at least
+    with the config's ``transient``?"""
+    run_dir = Path(run_dir)
+    path = run_dir / schema.ANALYSIS
+    traj = run_dir / schema.TRAJECTORY
+    if not path.exists():
+        return "no"
+    try:
+        if traj.exists() and traj.stat().st_mtime > path.stat().st_mtime:
+            return "stale"
+        import h5py
+
+        with h5py.File(path, "r", locking=False) as f:
+            used = json.loads(f.attrs.get("settings_json", "{}"))
+    except (OSError, ValueError):
+        return "stale"  # unreadable: `fcsweep analyze` recomputes it
+    if settings is not None:
+        return "yes" if used == settings else "stale"
+    t = used.get("transient")
+    return "stale" if t is not None and abs(float(t) - float(transient)) > 1e-12 else "yes"
+
+
+def settings_change(have: str | None, want: str) -> str:
+    """``steps 2000 -> 4000`` when a done run's fingerprint differs from the config's."""
+    if not have or have == want:
+        return ""
+    try:
+        a, b = json.loads(have), json.loads(want)
+    except (TypeError, ValueError):
+        return "other settings"
+    return ", ".join(f"{k} {a.get(k)} -> {b.get(k)}" for k in sorted(b) if a.get(k) != b.get(k))
 
 
 def summary_line(rows: list[dict[str, Any]]) -> str:
@@ -61,7 +114,8 @@ def summary_line(rows: list[dict[str, Any]]) -> str:
 
 def format_status(rows: list[dict[str, Any]], *, reasons: bool = True) -> str:
     """Fixed-width table with a progress column and a summary line."""
-    head = f"{'idx':>4}  {'run_id':12}  {'state':11}  {'progress':>14}  {'proj':>6}  {'wall[s]':>8}  parameters"
+    head = (f"{'idx':>4}  {'run_id':12}  {'state':11}  {'progress':>14}  {'proj':>6}  {'wall[s]':>8}  "
+            f"{'analysed':8}  parameters")
     lines = [head, "-" * len(head)]
     for r in rows:
         pct = 100.0 * r["steps_done"] / max(r["steps"], 1)
@@ -69,12 +123,38 @@ def format_status(rows: list[dict[str, Any]], *, reasons: bool = True) -> str:
         proj = "" if r["projections"] is None else str(r["projections"])
         wall = "" if r["wall_seconds"] is None else f"{float(r['wall_seconds']):.1f}"
         lines.append(
-            f"{r['index']:>4}  {r['run_id']:12}  {r['state']:11}  {prog:>14}  {proj:>6}  {wall:>8}  {r['label']}"
+            f"{r['index']:>4}  {r['run_id']:12}  {r['state']:11}  {prog:>14}  {proj:>6}  {wall:>8}  "
+            f"{r.get('analysis', ''):8}  {r['label']}"
         )
         if reasons and r["state"] in ("failed", "corrupt", "interrupted") and r["reason"]:
             lines.append(f"{'':6}reason: {r['reason']}")
+        if r.get("outdated"):
+            lines.append(f"{'':6}computed with other run settings ({r['outdated']})")
     lines.append(summary_line(rows))
     return "\n".join(lines)
+
+
+def advice(rows: list[dict[str, Any]], config_arg: str = "") -> list[str]:
+    """What to do next, one line per situation found in ``rows``."""
+    out = []
+    c = Counter(r["state"] for r in rows)
+    cmd = f"fcsweep simulate {config_arg}".rstrip()
+    old = [r for r in rows if r.get("outdated")]
+    if old:
+        out.append(f"{len(old)} done run(s) were computed with other run settings ({old[0]['outdated']}): "
+                   f"`{cmd} --force` recomputes them, or give another output directory (-o)")
+    if c.get("failed"):
+        out.append(f"{c['failed']} run(s) failed: fix the cause (see reason) and run `{cmd} --retry-failed`")
+    if c.get("pending") or c.get("interrupted"):
+        out.append(f"`{cmd}` computes the pending runs and resumes interrupted ones from their checkpoints")
+    acmd = f"fcsweep analyze {config_arg}".rstrip()
+    missing = sum(r.get("analysis") == "no" for r in rows)
+    stale = sum(r.get("analysis") == "stale" for r in rows)
+    if missing:
+        out.append(f"{missing} done run(s) not analysed: `{acmd}`")
+    if stale:
+        out.append(f"{stale} run(s) with a stale analysis: `{acmd} --force` recomputes them")
+    return out
 
 
 def _short(n: int) -> str:

@@ -1,0 +1,86 @@
+"""Every file, section and path the documents name exists in the repository.
+
+Checked: README.md, results_schema.md, docs/*.md, configs/README.md and the comments of
+configs/*.yaml, workflows/README.md.  A reference is a markdown link (``[text](target)``,
+with an optional ``#anchor``), a repository path (``docs/x.md``, ``configs/y.yaml``,
+``fcsweep/.../z.py``, ...), a bare ``NAME.md``, or a README section quoted as
+``README "Title"`` / ``README: "Title"``.  Files a sweep writes (``trajectory.h5``,
+``phase_diagram.nc``, ...) are names, not references, and are not checked.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+DOCS = sorted({*ROOT.glob("*.md"), *(ROOT / "docs").glob("*.md"), ROOT / "configs" / "README.md",
+               *(ROOT / "configs").glob("*.yaml"), ROOT / "workflows" / "README.md"})
+
+LINK = re.compile(r"\[[^\]]*\]\(([^)\s]+)\)")
+PATH = re.compile(r"(?<![\w./-])((?:docs|configs|fcsweep|tests|benchmarks|workflows)/[\w./-]*\w)(?![\w*<{])")
+BARE_MD = re.compile(r"(?<![\w./-])([A-Za-z][\w-]*\.md)\b")
+SECTION = re.compile(r"README:?\s*[\"“]([^\"”]+)[\"”]")
+
+
+def _slug(title: str) -> str:
+    """GitHub's anchor of a heading."""
+    s = re.sub(r"[^\w\- ]", "", title.strip().lower())
+    return s.replace(" ", "-")
+
+
+def _headings(path: Path) -> list[str]:
+    return [m.group(1).strip() for m in re.finditer(r"^#+\s+(.*)$", path.read_text(), re.M)]
+
+
+def _exists(target: str, doc: Path) -> bool:
+    target = target.rstrip(".,;:")
+    return (doc.parent / target).exists() or (ROOT / target).exists()
+
+
+def _references(doc: Path):
+    text = doc.read_text()
+    if doc.suffix == ".yaml":  # only comments document anything in a config
+        text = "\n".join(line.split("#", 1)[1] for line in text.splitlines() if "#" in line)
+    for m in LINK.finditer(text):
+        yield "link", m.group(1)
+    for m in PATH.finditer(text):
+        yield "path", m.group(1)
+    for m in BARE_MD.finditer(text):
+        yield "md", m.group(1)
+    for m in SECTION.finditer(text):
+        yield "section", m.group(1)
+
+
+@pytest.mark.parametrize("doc", DOCS, ids=lambda p: str(p.relative_to(ROOT)))
+def test_every_reference_resolves(doc):
+    readme_titles = _headings(ROOT / "README.md")
+    broken = []
+    for kind, ref in _references(doc):
+        if kind == "link":
+            if re.match(r"[a-z]+://|mailto:", ref):
+                continue
+            target, _, anchor = ref.partition("#")
+            dest = doc if not target else doc.parent / target
+            if target and not dest.exists():
+                broken.append(f"link {ref}")
+            elif anchor and dest.suffix == ".md" and anchor not in {_slug(h) for h in _headings(dest)}:
+                broken.append(f"anchor {ref}")
+        elif kind == "path" and not _exists(ref, doc):
+            broken.append(f"path {ref}")
+        elif kind == "md":
+            if not (_exists(ref, doc) or (ROOT / "docs" / ref).exists() and doc.parent.name == "docs"):
+                broken.append(f"file {ref}")
+        elif kind == "section" and ref not in readme_titles:
+            broken.append(f'README section "{ref}"')
+    assert not broken, f"{doc.relative_to(ROOT)}: unresolved " + "; ".join(sorted(set(broken)))
+
+
+def test_the_checker_sees_broken_references(tmp_path):
+    """The patterns catch the kinds of breakage the documents had."""
+    doc = tmp_path / "x.md"
+    doc.write_text('See MODEL.md and [a](nowhere.md), docs/nothing.md, README "No such section".')
+    kinds = {k for k, _ in _references(doc)}
+    assert kinds == {"link", "path", "md", "section"}
