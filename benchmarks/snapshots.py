@@ -1,6 +1,6 @@
 """Dense, deformed test configurations made without the simulation engine.
 
-``dense_snapshot`` puts cells on the hexagonal lattice of MODEL.md, jitters them, gives
+``dense_snapshot`` puts cells on the hexagonal lattice of docs/model.md, jitters them, gives
 them random polarities and random admissible shapes; ``snapshot_from_arrays`` wraps
 arrays taken from a real run (e.g. ``sim.state``) into the same dict.
 """

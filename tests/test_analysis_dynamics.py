@@ -50,7 +50,7 @@ def test_msd_matches_direct_window_sum():
 
 
 def test_free_active_brownian_particles_have_unit_D_eff():
-    # MSD -> 4 D0 t with D0 = v0^2 / (2 Dr) (MODEL.md property 6).  T = 200 / Dr:
+    # MSD -> 4 D0 t with D0 = v0^2 / (2 Dr) (docs/model.md property 6).  T = 200 / Dr:
     # 8 time blocks of 25 / Dr; 1000 particles.
     v0, Dr = 1.0, 1.0
     x = active_brownian(1000, v0, Dr, dt=0.02, steps=10000, every=10, seed=2)

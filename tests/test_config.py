@@ -38,7 +38,7 @@ def test_grid_expansion_order_and_defaults():
         (0.01, 0.01, 0), (0.01, 0.01, 1), (0.01, 0.03, 0), (0.01, 0.03, 1)]
     assert np.allclose(cfg.grid["v0"], [0.01, 0.03, 0.05])
     p = runs[0].params
-    # defaults of MODEL.md filled in
+    # defaults of docs/model.md filled in
     assert (p["Dr"], p["density"], p["dt"], p["modes"], p["contour_points"], p["quadrature"]) == (
         0.01, 0.95, 5e-3, 6, 40, "arc")
     assert cfg.swept == ["eta", "v0"] and runs[0].swept == ("eta", "v0")

@@ -86,3 +86,26 @@ def test_label_near_threshold_is_undetermined_with_its_probability():
     assert "solid threshold" in lab.reason
     sure = classify_phase(3e-3, 2e-4, 3.7, 0.01)
     assert sure.code == PHASE_FLUID and sure.confidence > 0.999
+
+
+def test_cage_relaxing_slower_than_the_persistence_time_is_not_called_fluid():
+    """Lattice sites with Ornstein-Uhlenbeck displacements relaxing in 3/Dr (sd 0.3 R0,
+    plateau 0.36 R0^2): true D = 0, but within blocks of 4/Dr the MSD still rises like
+    D_eff ~ 3e-3. The whole run as one block sees it bend, the settling check fails, and the
+    estimate is flagged not diffusive (the label is then undetermined), never fluid."""
+    from scipy.signal import lfilter
+
+    rng = np.random.default_rng(8)
+    frames, h, tau_c, sd = 1201, 2.0, 300.0, 0.3
+    f = np.exp(-h / tau_c)
+    noise = rng.normal(scale=sd * np.sqrt(1 - f * f), size=(frames, 256, 2))
+    noise[0] = rng.normal(scale=sd, size=(256, 2))
+    u = lfilter([1.0], [1.0, -f], noise, axis=0)
+    sites = np.stack(np.meshgrid(np.arange(16.0), np.arange(16.0)), -1).reshape(-1, 2) * 2.0
+    e = estimate_diffusion(np.arange(frames) * h, sites + u, Dr=DR)
+    short = classify_phase(e.D / D0, e.D_err / D0, 3.6, 0.001)
+    assert short.code == PHASE_FLUID  # what the short blocks alone would say
+    assert not e.diffusive
+    lab = classify_phase(e.D / D0, e.D_err / D0, 3.6, 0.001, diffusion_ok=e.diffusive,
+                         diffusion_note="MSD not diffusive")
+    assert lab.code == PHASE_UNDETERMINED

@@ -1,4 +1,4 @@
-"""Pure shape math: area, admissibility, projection, lattice (MODEL.md, Cell shape)."""
+"""Pure shape math: area, admissibility, projection, lattice (docs/model.md, Cell shape)."""
 
 import math
 

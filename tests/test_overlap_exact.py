@@ -182,7 +182,7 @@ def rates16(snap16):
 
 
 def test_reference_rates_match_model_md_formulas(snap16, rates16):
-    # FD of the exact energy against MODEL.md's integrals (centroid, torque, dR/da_n =
+    # FD of the exact energy against docs/model.md's integrals (centroid, torque, dR/da_n =
     # R0 (cos n phi - a_n / 2a0), dP/da_n) evaluated on the exact arcs.  Observed 4e-9.
     s = snap16
     c = continuum_rates(s["pos"], s["theta"], s["a"], s["b"], eta=0.05, v0=0.02, box=s["box"])

@@ -1,4 +1,4 @@
-"""Phase behaviour the paper reports, on small systems (MODEL.md, 'What the paper reports').
+"""Phase behaviour the paper reports, on small systems (docs/model.md, 'What the paper reports').
 
 These are physics regression checks of the whole engine: a stiff, slow population is a
 solid (caged: the MSD saturates far below one cell area), a soft, fast one is a soft

@@ -1,4 +1,4 @@
-"""The properties of MODEL.md that any correct implementation has."""
+"""The properties of docs/model.md that any correct implementation has."""
 
 import math
 

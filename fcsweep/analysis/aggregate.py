@@ -66,6 +66,8 @@ META = {
     "D_eff_err_cells": ("error of D_eff from the scatter of cell subsets within time blocks", "1"),
     "D_eff_late": ("D_eff from the upper half of the MSD fit window (settling check)", "1"),
     "D_eff_late_err": ("1-sigma error of D_eff_late", "1"),
+    "D_eff_long": ("D_eff from one block spanning the run (settling check)", "1"),
+    "D_eff_long_err": ("1-sigma error of D_eff_long", "1"),
     "msd_diffusive": ("1 if the MSD slope has settled within the run, else 0", "1"),
     "msd_long_enough": ("1 if a time block spans at least min_block_persistence / Dr, else 0", "1"),
     "n_time_blocks": ("number of time blocks of the D_eff estimate", "1"),
@@ -116,6 +118,7 @@ META = {
     "run_id": ("run identifier (directory name under runs/)", ""),
 }
 SCALAR_VARS = ("D_eff", "D_eff_err", "D_eff_err_time", "D_eff_err_cells", "D_eff_late", "D_eff_late_err",
+               "D_eff_long", "D_eff_long_err",
                "msd_diffusive", "msd_long_enough", "n_time_blocks", "block_span",
                "D_s", "D_s_err", "D0", "fit_t_min", "fit_t_max",
                "q_mean", "q_mean_err", "q_std", "q_frac_above", "q_frac_above_err", "rho_d", "rho_d_err",

@@ -74,7 +74,8 @@ DEFAULT_SETTINGS = {
 
 #: Scalar observables stored as attributes of ``/observables`` in analysis.h5.
 SCALARS = ("D_s", "D_s_err", "D0", "D_eff", "D_eff_err", "D_eff_err_time", "D_eff_err_cells",
-           "D_eff_late", "D_eff_late_err", "msd_diffusive", "msd_long_enough", "n_time_blocks",
+           "D_eff_late", "D_eff_late_err", "D_eff_long", "D_eff_long_err", "msd_diffusive", "msd_long_enough",
+           "n_time_blocks",
            "block_span", "fit_t_min", "fit_t_max",
            "q_mean", "q_mean_err", "q_std", "q_frac_above", "q_frac_above_err", "rho_d", "rho_d_err",
            "largest_cluster_fraction", "largest_cluster_fraction_err", "psi6", "psi6_err",
@@ -224,6 +225,7 @@ def compute_observables(traj, settings: dict) -> tuple[dict, dict, dict]:
     sc.update(D_s=est.D, D_s_err=est.D_err, D0=D0, D_eff=conv(est.D), D_eff_err=conv(est.D_err),
               D_eff_err_time=conv(est.D_err_time), D_eff_err_cells=conv(est.D_err_cells),
               D_eff_late=conv(est.D_late), D_eff_late_err=conv(est.D_late_err),
+              D_eff_long=conv(est.D_long), D_eff_long_err=conv(est.D_long_err),
               msd_diffusive=float(est.diffusive), msd_long_enough=float(est.long_enough),
               n_time_blocks=float(est.n_time_blocks), block_span=est.block_span,
               fit_t_min=est.t_min, fit_t_max=est.t_max,
@@ -237,8 +239,9 @@ def compute_observables(traj, settings: dict) -> tuple[dict, dict, dict]:
                 f"need {float(settings['min_block_persistence']):g}/Dr = "
                 f"{float(settings['min_block_persistence']) / Dr:.4g}")
     elif not est.diffusive:
-        note = (f"MSD not diffusive within the run: D_eff from the late half of the fit window "
-                f"{sc['D_eff_late']:.3g} +- {sc['D_eff_late_err']:.2g} against {sc['D_eff']:.3g}")
+        note = (f"MSD not diffusive within the run: D_eff {sc['D_eff']:.3g} +- {sc['D_eff_err']:.2g}, "
+                f"from the late half of the fit window {sc['D_eff_late']:.3g} +- {sc['D_eff_late_err']:.2g}, "
+                f"from the whole run as one block {sc['D_eff_long']:.3g} +- {sc['D_eff_long_err']:.2g}")
     conf = float(settings["label_confidence"])
     lab = classify_phase(sc["D_eff"], sc["D_eff_err"], sc["q_mean"], sc["q_mean_err"],
                          diffusion_ok=not note, diffusion_note=note, min_confidence=conf)
