@@ -70,7 +70,7 @@ def test_collective_motion_error_matches_scatter_over_realisations():
 
 
 def test_run_shorter_than_the_persistence_time_is_undetermined():
-    """Span 2/Dr: not one block of 4/Dr fits. The estimate is flagged and the label is
+    """Span 2/Dr: not one block of 8/Dr fits. The estimate is flagged and the label is
     undetermined with the reason, whatever the numbers."""
     e = _abp_estimate(0.1, 7, frames=101)
     assert not e.long_enough
@@ -90,7 +90,7 @@ def test_label_near_threshold_is_undetermined_with_its_probability():
 
 def test_cage_relaxing_slower_than_the_persistence_time_is_not_called_fluid():
     """Lattice sites with Ornstein-Uhlenbeck displacements relaxing in 3/Dr (sd 0.3 R0,
-    plateau 0.36 R0^2): true D = 0, but within blocks of 4/Dr the MSD still rises like
+    plateau 0.36 R0^2): true D = 0, but within blocks of 4/Dr (min_block_persistence=4) the MSD still rises like
     D_eff ~ 3e-3. The whole run as one block sees it bend, the settling check fails, and the
     estimate is flagged not diffusive (the label is then undetermined), never fluid."""
     from scipy.signal import lfilter
@@ -102,7 +102,7 @@ def test_cage_relaxing_slower_than_the_persistence_time_is_not_called_fluid():
     noise[0] = rng.normal(scale=sd, size=(256, 2))
     u = lfilter([1.0], [1.0, -f], noise, axis=0)
     sites = np.stack(np.meshgrid(np.arange(16.0), np.arange(16.0)), -1).reshape(-1, 2) * 2.0
-    e = estimate_diffusion(np.arange(frames) * h, sites + u, Dr=DR)
+    e = estimate_diffusion(np.arange(frames) * h, sites + u, Dr=DR, min_block_persistence=4.0)
     short = classify_phase(e.D / D0, e.D_err / D0, 3.6, 0.001)
     assert short.code == PHASE_FLUID  # what the short blocks alone would say
     assert not e.diffusive

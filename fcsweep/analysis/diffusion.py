@@ -110,7 +110,7 @@ def _errors(Dbc: np.ndarray, cell_weights: np.ndarray) -> tuple[float, float, fl
 
 
 def estimate_diffusion(time, unwrapped, *, Dr: float, max_time_blocks: int = 8,
-                       min_block_persistence: float = 4.0, min_block_frames: int = 16,
+                       min_block_persistence: float = 8.0, min_block_frames: int = 16,
                        n_cell_blocks: int = 16, fit_start: float = 0.2,
                        settle_tol: float = 0.0) -> DiffusionEstimate:
     """Long-time self-diffusion from time blocks of a trajectory, with an honest error.

@@ -58,7 +58,7 @@ DEFAULT_SETTINGS = {
     "transient": 0.2,
     "fit_start": 0.2,
     "max_time_blocks": 8,
-    "min_block_persistence": 4.0,
+    "min_block_persistence": 8.0,
     "n_blocks": 16,
     "label_confidence": round(MIN_CONFIDENCE, 4),
     "subtract_drift": True,
