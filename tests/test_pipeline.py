@@ -234,7 +234,7 @@ def test_status_shows_pending_interrupted_and_progress(done_sweep, tmp_path):
 
 def test_process_pool_matches_serial(done_sweep, tmp_path, monkeypatch):
     """Also: more workers than cores are capped at the cores (no oversubscription)."""
-    monkeypatch.setattr("fcsweep.sweep.layout.available_cores", lambda: 2)
+    monkeypatch.setattr("fcsweep.io.machine.available_cores", lambda: 2)
     path, ref = done_sweep
     out = tmp_path / "pool"
     r = CliRunner().invoke(cli, ["simulate", str(path), "-o", str(out), "--workers", "5"])
@@ -324,9 +324,9 @@ def test_spilling_frames_between_checkpoints_gives_same_file(done_sweep, tmp_pat
 @pytest.mark.parametrize("cores,workers,layout", [(2, 1, (1, 2)), (2, 2, (2, 1)), (2, 8, (2, 1)), (16, 3, (3, 5)),
                                                   (1, 4, (1, 1))])
 def test_worker_layout_never_oversubscribes(cores, workers, layout, monkeypatch):
-    from fcsweep.sweep.layout import worker_layout
+    from fcsweep.io.machine import worker_layout
 
-    monkeypatch.setattr("fcsweep.sweep.layout.available_cores", lambda: cores)
+    monkeypatch.setattr("fcsweep.io.machine.available_cores", lambda: cores)
     processes, threads = worker_layout(workers)
     assert (processes, threads) == layout and processes * threads <= cores
 
@@ -334,7 +334,7 @@ def test_worker_layout_never_oversubscribes(cores, workers, layout, monkeypatch)
 @pytest.mark.parametrize("text,cpus", [("200000 100000\n", 2), ("150000 100000", 2), ("max 100000", None),
                                        ("garbage", None)])
 def test_cgroup_cpu_quota_caps_the_cores(text, cpus, tmp_path):
-    from fcsweep.sweep.layout import cgroup_cpu_quota
+    from fcsweep.io.machine import cgroup_cpu_quota
 
     f = tmp_path / "cpu.max"
     f.write_text(text)

@@ -28,7 +28,7 @@ from fcsweep.io.locks import DEFAULT_STALE_AFTER
 from fcsweep.io.rundir import RunDirectory
 from fcsweep.io.status import read_status
 from fcsweep.sweep import interrupt
-from fcsweep.sweep.layout import worker_layout
+from fcsweep.io.machine import worker_layout
 from fcsweep.sweep.progress import Progress
 from fcsweep.sweep.runner import RunOutcome, run_one
 
