@@ -1,4 +1,4 @@
-"""Command line: ``fcsweep simulate | status | list-runs | validate | bench | analyze | aggregate | plot``.
+"""Command line: ``fcsweep simulate | status | list-runs | validate | bench | analyze | aggregate | plot | refine``.
 
 Every command takes an optional CONFIG (a sweep YAML file); without one it uses the
 built-in demo sweep (``fcsweep/data/smoke.yaml``, identical to ``configs/smoke.yaml``),
@@ -228,10 +228,13 @@ def bench(config, compare, steps, warm, threads, workers, as_json):
     cpu = sum(r.cpu_seconds for r in own)
     processes, _ = worker_layout(workers)
     wall = max(cpu / processes, max(r.cpu_seconds / r.runs for r in own))  # no run is split
+    cpu_min = sum(r.cpu_seconds_min for r in own)  # run.until: every run settles at its first check
     if as_json:
         click.echo(json.dumps({"rows": [{**r.setting, "runs": r.runs, "cell_steps": r.cell_steps,
-                                         "cell_steps_per_s": r.rate, "cpu_seconds": r.cpu_seconds} for r in rows],
-                               "sweep_cpu_seconds": cpu, "processes": processes,
+                                         "cell_steps_min": r.cell_steps_min, "cell_steps_per_s": r.rate,
+                                         "cpu_seconds": r.cpu_seconds, "cpu_seconds_min": r.cpu_seconds_min}
+                                        for r in rows],
+                               "sweep_cpu_seconds": cpu, "sweep_cpu_seconds_min": cpu_min, "processes": processes,
                                "sweep_wall_seconds": wall, "threads": threads}, indent=1))
         return
     click.echo(f"{'N':>6} {'modes':>5} {'K':>4} {'quadrature':>10} {'runs':>5} {'cell-steps/s':>13} "
@@ -243,6 +246,12 @@ def bench(config, compare, steps, warm, threads, workers, as_json):
     click.echo(f"sweep ({len(cfg.runs())} runs, {cfg.run.steps} steps each, its own quadratures): "
                f"{_duration(cpu)} of CPU at {threads} thread(s) per run; about {_duration(wall)} "
                f"wall on {processes} process(es)")
+    if cfg.run.until:
+        from fcsweep.sweep.bench import first_stop
+
+        click.echo(f"with run.until: between {_duration(cpu_min)} (every run settled at its first check, "
+                   f"{first_stop(cfg.run)} steps) and {_duration(cpu)} of CPU (every run to the cap, "
+                   f"{cfg.run.steps} steps), plus the checks")
 
 
 @cli.command()
@@ -307,6 +316,80 @@ def plot(config, output, run, frame, outdir):
     cfg = _load(config, output)
     for p in plot_sweep(cfg, run=run, frame=frame, outdir=Path(outdir) if outdir else None):
         click.echo(str(p))
+
+
+@cli.command()
+@CONFIG_ARG
+@OUTPUT_OPT
+@click.option("--rounds", "-r", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Refinement rounds (each adds points, then simulates, analyses and aggregates).")
+@click.option("--max-points", "-p", type=click.IntRange(min=1), default=None,
+              help="Most grid points added per round (highest priority first) [no limit].")
+@click.option("--workers", "-j", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Runs computed (and analysed) at once on this machine.")
+@click.option("--quiet", "-q", is_flag=True, help="No progress output.")
+def refine(config, output, rounds, max_points, workers, quiet):
+    """Add grid points where labels change, then simulate, analyse and aggregate them.
+
+    Completes the sweep first (simulate, analyze, aggregate: done runs are reused); then,
+    each round, adds the midpoint of every pair of neighbours along a swept axis whose
+    phase or percolation labels differ or are undetermined (geometric midpoints on
+    log ranges), records the points in <output>/refinement.json and computes them.
+    """
+    import datetime as _dt
+
+    import xarray as xr
+
+    from fcsweep.analysis.aggregate import aggregate_sweep
+    from fcsweep.analysis.phase import PERCOLATION_FLAGS, PHASE_FLAGS
+    from fcsweep.analysis.pipeline import analyze_sweep
+    from fcsweep.io.refinement import append_round
+    from fcsweep.sweep import interrupt
+    from fcsweep.sweep.executors import run_sweep
+    from fcsweep.sweep.progress import Progress
+    from fcsweep.sweep.refine import point_labels, propose_points
+
+    cfg = _load(config, output, to_run=True)
+    failed = 0
+    for k in range(rounds + 1):
+        try:
+            specs = cfg.runs()
+        except ConfigError as exc:
+            click.echo(f"fcsweep: invalid config: {exc}", err=True)
+            sys.exit(2)
+        progress = Progress(len(specs), enabled=not quiet)
+        previous = interrupt.install()
+        try:
+            outcomes = run_sweep(cfg, specs, executor="process" if workers > 1 else "serial", workers=workers,
+                                 progress=progress)
+        finally:
+            progress.close()
+            interrupt.restore(previous)
+        sig = interrupt.requested()
+        if sig is not None:
+            click.echo(f"fcsweep: stopped by {interrupt.reason()}; run the same command again to go on", err=True)
+            sys.exit(interrupt.exit_code(sig))
+        failed = sum(o.outcome == "failed" for o in outcomes)
+        analyze_sweep(cfg, workers=workers)
+        path = aggregate_sweep(cfg)
+        computed = sum(o.outcome == "done" for o in outcomes)
+        click.echo(f"fcsweep: {len(specs)} runs ({computed} computed now, {failed} failed) -> {path}", err=True)
+        if k == rounds:
+            break
+        with xr.open_dataset(path) as ds:
+            labels = point_labels(ds, specs, cfg.swept)
+        new = propose_points(labels, cfg.swept, log_axes=cfg.log_axes, max_points=max_points,
+                             flag_names={"phase": PHASE_FLAGS, "percolated": PERCOLATION_FLAGS})
+        if not new:
+            click.echo("fcsweep: no neighbours with differing or undetermined labels: nothing to refine", err=True)
+            break
+        number = append_round(cfg.output, [p.point for p in new], [p.why for p in new],
+                              _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"))
+        click.echo(f"fcsweep: refinement round {number}: {len(new)} point(s) added", err=True)
+        for p in new:
+            click.echo(f"  {' '.join(f'{a}={v}' for a, v in p.point.items())}: {p.why}")
+    if failed:
+        sys.exit(1)
 
 
 def main() -> None:

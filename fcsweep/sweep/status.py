@@ -110,8 +110,8 @@ def format_status(rows: list[dict[str, Any]], *, reasons: bool = True) -> str:
             lines.append(f"{'':6}reason: {r['reason']}")
         if reasons and r.get("extend"):
             lines.append(f"{'':6}will be extended: {r['extend']}")
-    lines.append(summary_line(rows))
     lines.append(cost_line(rows))
+    lines.append(summary_line(rows))
     return "\n".join(lines)
 
 
