@@ -126,7 +126,7 @@ def propose_points(
                     continue
                 gap = (math.log(q[i] / p[i]) if log and p[i] > 0 else float(q[i] - p[i])) / spans[a]
                 rest = ", ".join(f"{axes[k]}={p[k]}" for k in range(len(axes)) if k != i)
-                kind = "differ" if differ and not (undetermined and lp == lq) else "undetermined"
+                kind = "undetermined" if undetermined else "differ"
                 why = (f"{a} between {p[i]} ({_describe(lp, flag_names)}) and {q[i]} "
                        f"({_describe(lq, flag_names)})" + (f" at {rest}" if rest else ""))
                 prio = (0 if kind == "differ" else 1, -gap, i, tuple(str(v) for v in new))
