@@ -296,15 +296,16 @@ def test_run_stops_without_writing_when_lock_is_taken_over(done_sweep, tmp_path)
 
 
 def test_changed_run_settings_are_refused_not_mixed(done_sweep, tmp_path):
-    """Same output dir, more steps: done runs are not silently reused nor overwritten."""
+    """Same output dir, other frame spacing: done runs are not silently reused nor
+    overwritten (more steps extend them instead: tests/test_extend_until.py)."""
     path, cfg = done_sweep
-    longer = tmp_path / "longer.yaml"
-    longer.write_text(path.read_text().replace("steps: 200,", "steps: 400,"))
+    other = tmp_path / "other.yaml"
+    other.write_text(path.read_text().replace("sample_every: 20,", "sample_every: 40,"))
     traj = cfg.run_dir(cfg.runs()[0].run_id) / schema.TRAJECTORY
     before = traj.stat().st_mtime_ns
-    r = CliRunner().invoke(cli, ["simulate", str(longer), "--task-index", "0"])
+    r = CliRunner().invoke(cli, ["simulate", str(other), "--task-index", "0"])
     assert r.exit_code == 1
-    assert "computed with other run settings (steps 200 -> 400)" in r.output
+    assert "computed with other run settings (sample_every 20 -> 40)" in r.output
     assert traj.stat().st_mtime_ns == before
     assert read_status(traj.parent)["status"] == "done"
 
