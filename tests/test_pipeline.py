@@ -300,12 +300,12 @@ def test_changed_run_settings_are_refused_not_mixed(done_sweep, tmp_path):
     overwritten (more steps extend them instead: tests/test_extend_until.py)."""
     path, cfg = done_sweep
     other = tmp_path / "other.yaml"
-    other.write_text(path.read_text().replace("sample_every: 20,", "sample_every: 40,"))
+    other.write_text(path.read_text().replace("sample_every: 20,", "sample_every: 50,"))
     traj = cfg.run_dir(cfg.runs()[0].run_id) / schema.TRAJECTORY
     before = traj.stat().st_mtime_ns
     r = CliRunner().invoke(cli, ["simulate", str(other), "--task-index", "0"])
     assert r.exit_code == 1
-    assert "computed with other run settings (sample_every 20 -> 40)" in r.output
+    assert "computed with other run settings (sample_every 20 -> 50)" in r.output
     assert traj.stat().st_mtime_ns == before
     assert read_status(traj.parent)["status"] == "done"
 
