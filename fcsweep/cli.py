@@ -327,69 +327,114 @@ def plot(config, output, run, frame, outdir):
               help="Most grid points added per round (highest priority first) [no limit].")
 @click.option("--workers", "-j", type=click.IntRange(min=1), default=1, show_default=True,
               help="Runs computed (and analysed) at once on this machine.")
+@click.option("--add-only", is_flag=True,
+              help="Only analyse, aggregate and add one round of points; compute nothing (job arrays).")
 @click.option("--quiet", "-q", is_flag=True, help="No progress output.")
-def refine(config, output, rounds, max_points, workers, quiet):
+def refine(config, output, rounds, max_points, workers, add_only, quiet):
     """Add grid points where labels change, then simulate, analyse and aggregate them.
 
     Completes the sweep first (simulate, analyze, aggregate: done runs are reused); then,
     each round, adds the midpoint of every pair of neighbours along a swept axis whose
     phase or percolation labels differ or are undetermined (geometric midpoints on
     log ranges), records the points in <output>/refinement.json and computes them.
+    With --add-only, one round of points is added from the runs done so far and their
+    run indices printed, for a job array to compute.
     """
+    cfg = _load(config, output, to_run=True)
+    failed = 0
+    for k in range(1 if add_only else rounds + 1):
+        if not add_only:
+            failed = _refine_compute(cfg, workers, quiet)
+        path = _refine_analyse(cfg, workers)
+        if k == rounds:
+            break
+        before = len(_runs(cfg))
+        if not _refine_add(cfg, path, max_points):
+            break
+        if add_only:
+            last = len(_runs(cfg)) - 1
+            click.echo(f"fcsweep: new runs {before}..{last}, e.g. sbatch --array={before}-{last} "
+                       f"workflows/slurm_array.sh {config}", err=True)
+    if failed:
+        sys.exit(1)
+
+
+def _runs(cfg: SweepConfig) -> list:
+    """The runs of a sweep, refined points included (exit 2 if the refinement file does not fit)."""
+    try:
+        return cfg.runs()
+    except ConfigError as exc:
+        click.echo(f"fcsweep: invalid config: {exc}", err=True)
+        sys.exit(2)
+
+
+def _refine_compute(cfg: SweepConfig, workers: int, quiet: bool) -> int:
+    """Simulate every run not done yet (refine's step 1); returns the number that failed."""
+    from fcsweep.sweep import interrupt
+    from fcsweep.sweep.executors import run_sweep
+    from fcsweep.sweep.progress import Progress
+    from fcsweep.sweep.space import check_space
+
+    specs = _runs(cfg)
+    try:
+        note = check_space(cfg, specs)
+    except OSError as exc:
+        click.echo(f"fcsweep: {exc.strerror or exc}", err=True)
+        sys.exit(2)
+    if note:
+        click.echo(f"fcsweep: warning: {note}", err=True)
+    progress = Progress(len(specs), enabled=not quiet)
+    previous = interrupt.install()
+    try:
+        outcomes = run_sweep(cfg, specs, executor="process" if workers > 1 else "serial", workers=workers,
+                             progress=progress)
+    finally:
+        progress.close()
+        interrupt.restore(previous)
+    sig = interrupt.requested()
+    if sig is not None:
+        click.echo(f"fcsweep: stopped by {interrupt.reason()}; run the same command again to go on", err=True)
+        sys.exit(interrupt.exit_code(sig))
+    failed = sum(o.outcome == "failed" for o in outcomes)
+    click.echo(f"fcsweep: {len(specs)} runs ({sum(o.outcome == 'done' for o in outcomes)} computed now, "
+               f"{failed} failed)", err=True)
+    return failed
+
+
+def _refine_analyse(cfg: SweepConfig, workers: int) -> Path:
+    """Analyse and aggregate (refine's step 2); returns the path of phase_diagram.nc."""
+    from fcsweep.analysis.aggregate import aggregate_sweep
+    from fcsweep.analysis.pipeline import analyze_sweep
+
+    analyze_sweep(cfg, workers=workers)
+    path = aggregate_sweep(cfg)
+    click.echo(f"fcsweep: aggregated -> {path}", err=True)
+    return path
+
+
+def _refine_add(cfg: SweepConfig, dataset: Path, max_points: int | None) -> int:
+    """Propose and record one round of points (refine's step 3); returns how many."""
     import datetime as _dt
 
     import xarray as xr
 
-    from fcsweep.analysis.aggregate import aggregate_sweep
     from fcsweep.analysis.phase import PERCOLATION_FLAGS, PHASE_FLAGS
-    from fcsweep.analysis.pipeline import analyze_sweep
     from fcsweep.io.refinement import append_round
-    from fcsweep.sweep import interrupt
-    from fcsweep.sweep.executors import run_sweep
-    from fcsweep.sweep.progress import Progress
     from fcsweep.sweep.refine import point_labels, propose_points
 
-    cfg = _load(config, output, to_run=True)
-    failed = 0
-    for k in range(rounds + 1):
-        try:
-            specs = cfg.runs()
-        except ConfigError as exc:
-            click.echo(f"fcsweep: invalid config: {exc}", err=True)
-            sys.exit(2)
-        progress = Progress(len(specs), enabled=not quiet)
-        previous = interrupt.install()
-        try:
-            outcomes = run_sweep(cfg, specs, executor="process" if workers > 1 else "serial", workers=workers,
-                                 progress=progress)
-        finally:
-            progress.close()
-            interrupt.restore(previous)
-        sig = interrupt.requested()
-        if sig is not None:
-            click.echo(f"fcsweep: stopped by {interrupt.reason()}; run the same command again to go on", err=True)
-            sys.exit(interrupt.exit_code(sig))
-        failed = sum(o.outcome == "failed" for o in outcomes)
-        analyze_sweep(cfg, workers=workers)
-        path = aggregate_sweep(cfg)
-        computed = sum(o.outcome == "done" for o in outcomes)
-        click.echo(f"fcsweep: {len(specs)} runs ({computed} computed now, {failed} failed) -> {path}", err=True)
-        if k == rounds:
-            break
-        with xr.open_dataset(path) as ds:
-            labels = point_labels(ds, specs, cfg.swept)
-        new = propose_points(labels, cfg.swept, log_axes=cfg.log_axes, max_points=max_points,
-                             flag_names={"phase": PHASE_FLAGS, "percolated": PERCOLATION_FLAGS})
-        if not new:
-            click.echo("fcsweep: no neighbours with differing or undetermined labels: nothing to refine", err=True)
-            break
-        number = append_round(cfg.output, [p.point for p in new], [p.why for p in new],
-                              _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"))
-        click.echo(f"fcsweep: refinement round {number}: {len(new)} point(s) added", err=True)
-        for p in new:
-            click.echo(f"  {' '.join(f'{a}={v}' for a, v in p.point.items())}: {p.why}")
-    if failed:
-        sys.exit(1)
+    with xr.open_dataset(dataset) as ds:
+        labels = point_labels(ds, _runs(cfg), cfg.swept)
+    new = propose_points(labels, cfg.swept, log_axes=cfg.log_axes, max_points=max_points,
+                         flag_names={"phase": PHASE_FLAGS, "percolated": PERCOLATION_FLAGS})
+    if not new:
+        click.echo("fcsweep: no neighbours with differing or undetermined labels: nothing to refine", err=True)
+        return 0
+    number = append_round(cfg.output, [p.point for p in new], [p.why for p in new],
+                          _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"))
+    click.echo(f"fcsweep: refinement round {number}: {len(new)} point(s) added", err=True)
+    for p in new:
+        click.echo(f"  {' '.join(f'{a}={v}' for a, v in p.point.items())}: {p.why}")
+    return len(new)
 
 
 def main() -> None:

@@ -138,3 +138,13 @@ def test_refine_command_simulates_analyses_and_aggregates_new_points(tmp_path):
         assert ds["v0"].values.tolist() == [0.02, 0.04, 0.06]
         assert (ds["status"].values == 0).all()
         assert ds.attrs["total_cell_steps"] == 3 * 16 * 400
+
+
+def test_refine_add_only_records_points_and_prints_their_indices(synthetic, tmp_path):
+    cfg, make = synthetic
+    make(cfg.runs())
+    res = CliRunner().invoke(cli, ["refine", str(_yaml(tmp_path)), "--add-only", "--max-points", "2"])
+    assert res.exit_code == 0, res.output
+    assert "new runs 4..5, e.g. sbatch --array=4-5" in res.output
+    assert len(read_points(tmp_path)) == 2 and len(cfg.runs()) == 6
+    assert not any((tmp_path / "runs" / r.run_id).exists() for r in cfg.runs()[4:])  # nothing computed

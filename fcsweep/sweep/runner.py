@@ -676,22 +676,14 @@ def _compute(cfg, spec, rd: RunDirectory, prev: dict, progress, force: bool, t0:
 
 
 def _assess(partial: Path, cfg: SweepConfig):
-    """Verdict of the ``run.until`` check on the frames of ``partial`` (analysis threads
-    as many as this run's numba threads, so a pool never oversubscribes the cores)."""
+    """Verdict of the ``run.until`` check on the frames of ``partial``.  freud runs on one
+    thread: its parallel reductions could differ in the last bits between thread counts,
+    and the verdict must not depend on the machine a resumed run lands on."""
     from fcsweep.analysis.settle import assess_trajectory
 
     until = cfg.run.until
     return assess_trajectory(partial, transient=cfg.run.transient, confidence=until.confidence,
-                             rel_error=dict(until.rel_error), threads=_numba_threads())
-
-
-def _numba_threads() -> int | None:
-    try:
-        import numba
-
-        return int(numba.get_num_threads())
-    except Exception:  # noqa: BLE001
-        return None
+                             rel_error=dict(until.rel_error), threads=1)
 
 
 def _version() -> str:
