@@ -89,7 +89,7 @@ from fcsweep.io.h5md import (
 from fcsweep.io.locks import DEFAULT_STALE_AFTER, LockLost
 from fcsweep.io.rundir import RunDirectory, ensure_free_space, io_error_cause, now_iso
 from fcsweep.sweep import interrupt
-from fcsweep.sweep.length import STOP_SETTLED, STOP_STEPS, extension_of, frames_done, same_physics
+from fcsweep.sweep.length import LENGTH_KEYS, STOP_SETTLED, STOP_STEPS, extension_of, frames_done, same_physics
 
 __all__ = ["RunOutcome", "run_one", "fingerprint_of", "trajectory_bytes", "SPILL_BYTES"]
 
@@ -254,7 +254,7 @@ def _parameters(cfg: SweepConfig, spec: RunSpec, fields, fingerprint: str) -> di
         sample_every=cfg.run.sample_every,
         checkpoint_every=cfg.run.checkpoint_every,
         transient=cfg.run.transient,
-        until_json=json.dumps(cfg.run.until.as_dict() if cfg.run.until else None, sort_keys=True),
+        until_json=_until_meta(cfg),
         run_id=spec.run_id,
         replicate=spec.replicate,
         base_seed=cfg.seed,
@@ -292,12 +292,11 @@ def _is_done(st: dict | None, traj: Path, fp: str) -> bool:
     return True
 
 
-
 def _conflict_message(path, have, want) -> str:
     try:
         a, b = json.loads(have), json.loads(want)
         diff = ", ".join(f"{k} {a.get(k)} -> {b.get(k)}" for k in sorted(b) if a.get(k) != b.get(k)
-                         and k != "steps")
+                         and k not in LENGTH_KEYS)
     except (TypeError, ValueError):
         diff = f"{have} -> {want}"
     return (f"{path} was computed with other run settings ({diff}); use another output "
@@ -424,6 +423,7 @@ def _cleanup_temporaries(run_dir: Path) -> None:
 
 
 def _until_meta(cfg) -> str:
+    """``run.until`` as the JSON string stored in ``/parameters`` (``"null"`` without)."""
     return json.dumps(cfg.run.until.as_dict() if cfg.run.until else None, sort_keys=True)
 
 
