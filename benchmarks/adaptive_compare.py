@@ -124,8 +124,10 @@ def _figure(fixed, adaptive, axes, path) -> None:
         ax.set_xlabel(axes[0])
         ax.set_title(title, fontsize=10)
     axs[0].set_ylabel(axes[1])
-    axs[0].legend(fontsize=8, title="phase (red: percolated)", title_fontsize=8)
-    fig.tight_layout()
+    handles, names = axs[0].get_legend_handles_labels()
+    fig.legend(handles, names, loc="lower center", ncol=len(names), fontsize=8,
+               title="phase (red: percolated, blue: not or undetermined)", title_fontsize=8)
+    fig.tight_layout(rect=(0, 0.12, 1, 1))
     fig.savefig(path, dpi=120)
 
 

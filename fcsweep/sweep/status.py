@@ -64,13 +64,13 @@ def collect_status(cfg: SweepConfig, *, verify: bool = False) -> list[dict[str, 
 
 def summary_line(rows: list[dict[str, Any]]) -> str:
     """E.g. ``4 runs: 2 done, 1 running, 0 interrupted, 1 failed, 0 pending`` (plus how
-    many done runs the next ``simulate`` extends, and how many settled early)."""
+    many done runs the next ``simulate`` extends, and how many stopped as settled)."""
     c = Counter(r["state"] for r in rows)
     line = f"{len(rows)} runs: " + ", ".join(f"{c.get(s, 0)} {s}" for s in STATES)
     ext = sum(bool(r.get("extend")) for r in rows)
     settled = sum(r.get("stop_reason") == "settled" and r["state"] == schema.DONE for r in rows)
     if settled:
-        line += f"; {settled} settled before the cap"
+        line += f"; {settled} stopped as settled (run.until)"
     if ext:
         line += f"; {ext} done run(s) will be extended by the next simulate"
     return line
