@@ -138,16 +138,22 @@ def test_until_stops_a_clear_case_early_and_at_the_same_step_after_a_kill(tmp_pa
     assert (par["stop_reason"], par["steps_done"], par["steps"]) == ("settled", 2000, 20000)
     assert json.loads(par["until_json"])["confidence"] == 0.95
 
-    # killed right after the checkpoint at the first check step, before the check ran
-    env = {**os.environ, "FCSWEEP_TEST_KILL_AT": "checkpoint:2"}
-    p = subprocess.run([sys.executable, "-m", "fcsweep.cli", "simulate", str(path), "-q"], env=env,
-                       capture_output=True, text=True)
-    assert p.returncode == -9, p.stdout + p.stderr
-    assert read_status(cfg.run_dir(spec.run_id))["status"] == "running"
-    (o,) = run_sweep(cfg, cfg.runs())
-    st2 = read_status(cfg.run_dir(spec.run_id))
-    assert o.outcome == "done" and (st2["stop_reason"], st2["steps_done"]) == ("settled", 2000)
-    assert_same_trajectory(cfg.run_dir(spec.run_id) / "trajectory.h5", ref.run_dir(spec.run_id) / "trajectory.h5")
+    # killed right after the checkpoint at the first check step, before the check ran;
+    # and after the settled trajectory was renamed into place, before status.json said so
+    for kill in ("checkpoint:2", "finalize:1"):
+        killed = cfg.with_output(tmp_path / kill.replace(":", "_"))
+        p = tmp_path / f"{kill.replace(':', '_')}.yaml"
+        p.write_text(path.read_text().replace(str(tmp_path / "killed"), str(killed.output)))
+        env = {**os.environ, "FCSWEEP_TEST_KILL_AT": kill}
+        res = subprocess.run([sys.executable, "-m", "fcsweep.cli", "simulate", str(p), "-q"], env=env,
+                             capture_output=True, text=True)
+        assert res.returncode == -9, res.stdout + res.stderr
+        assert read_status(killed.run_dir(spec.run_id))["status"] == "running"
+        (o,) = run_sweep(killed, killed.runs())
+        st2 = read_status(killed.run_dir(spec.run_id))
+        assert o.outcome == "done" and (st2["stop_reason"], st2["steps_done"]) == ("settled", 2000), kill
+        assert_same_trajectory(killed.run_dir(spec.run_id) / "trajectory.h5",
+                               ref.run_dir(spec.run_id) / "trajectory.h5")
 
     # raising the cap does not extend a run that settled under the same targets
     _, raised = _cfg(tmp_path, "u2", UNTIL.format(out=tmp_path / "ref", cap=40000, until=until))
