@@ -463,9 +463,12 @@ def _compute(cfg, spec, rd: RunDirectory, prev: dict, progress, force: bool, t0:
 
     fp_any = fingerprint_of(cfg, spec)
     notes: list[str] = []
-    if force or prev.get("run_id") != spec.run_id:
+    if prev.get("run_id") != spec.run_id:
         prev = {}
+    # cost counts every attempt, recomputations (--force, damaged files) included
     cost = {k: float(prev.get(k, 0.0) or 0.0) for k in schema.COST_KEYS}
+    if force:
+        prev = {}
     if traj.exists() and not force:
         # Killed after the final rename but before status.json said done?  Or done and
         # now wanted longer (extension)?
