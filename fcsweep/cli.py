@@ -96,15 +96,7 @@ def simulate(config, output, workers, executor, scheduler, task_index, retry_fai
             click.echo(f"fcsweep: --workers {workers} is more than the {processes} core(s) available; "
                        f"using {processes}", err=True)
             workers = processes
-    from fcsweep.sweep.space import check_space
-
-    try:
-        note = check_space(cfg, specs)
-    except OSError as exc:
-        click.echo(f"fcsweep: {exc.strerror or exc}", err=True)
-        sys.exit(2)
-    if note:
-        click.echo(f"fcsweep: warning: {note}", err=True)
+    _check_space(cfg, specs)
     src = config or f"built-in demo ({builtin_demo_path().name})"
     click.echo(f"fcsweep: {len(specs)} run(s) of {src} -> {cfg.output} [{executor}"
                f"{', ' + str(workers) + ' workers' if executor == 'process' else ''}]", err=True)
@@ -368,14 +360,10 @@ def _runs(cfg: SweepConfig) -> list:
         sys.exit(2)
 
 
-def _refine_compute(cfg: SweepConfig, workers: int, quiet: bool) -> int:
-    """Simulate every run not done yet (refine's step 1); returns the number that failed."""
-    from fcsweep.sweep import interrupt
-    from fcsweep.sweep.executors import run_sweep
-    from fcsweep.sweep.progress import Progress
+def _check_space(cfg: SweepConfig, specs) -> None:
+    """Exit 2 if one run's trajectory cannot fit on the output's disk; warn if all may not."""
     from fcsweep.sweep.space import check_space
 
-    specs = _runs(cfg)
     try:
         note = check_space(cfg, specs)
     except OSError as exc:
@@ -383,6 +371,16 @@ def _refine_compute(cfg: SweepConfig, workers: int, quiet: bool) -> int:
         sys.exit(2)
     if note:
         click.echo(f"fcsweep: warning: {note}", err=True)
+
+
+def _refine_compute(cfg: SweepConfig, workers: int, quiet: bool) -> int:
+    """Simulate every run not done yet (refine's step 1); returns the number that failed."""
+    from fcsweep.sweep import interrupt
+    from fcsweep.sweep.executors import run_sweep
+    from fcsweep.sweep.progress import Progress
+
+    specs = _runs(cfg)
+    _check_space(cfg, specs)
     progress = Progress(len(specs), enabled=not quiet)
     previous = interrupt.install()
     try:
