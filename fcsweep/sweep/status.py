@@ -110,6 +110,9 @@ def format_status(rows: list[dict[str, Any]], *, reasons: bool = True) -> str:
             lines.append(f"{'':6}reason: {r['reason']}")
         if reasons and r.get("extend"):
             lines.append(f"{'':6}will be extended: {r['extend']}")
+        check = r.get("check") or {}
+        if reasons and r["state"] in ("running", "interrupted") and check.get("unmet"):
+            lines.append(f"{'':6}not settled at step {check.get('step')}: {'; '.join(check['unmet'])}")
     lines.append(cost_line(rows))
     lines.append(summary_line(rows))
     return "\n".join(lines)
