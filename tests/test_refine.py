@@ -134,6 +134,8 @@ def test_refine_command_simulates_analyses_and_aggregates_new_points(tmp_path):
     status = CliRunner().invoke(cli, ["status", str(p), "--json"])
     rows = json.loads(status.output)
     assert [r["state"] for r in rows] == ["done"] * 3 and rows[2]["label"] == "v0=0.04"
+    again = CliRunner().invoke(cli, ["simulate", str(p), "--task-index", "2"])  # job arrays see the point
+    assert again.exit_code == 0 and "0 computed, 1 already done" in again.output
     with xr.open_dataset(tmp_path / "out" / "phase_diagram.nc") as ds:
         assert ds["v0"].values.tolist() == [0.02, 0.04, 0.06]
         assert (ds["status"].values == 0).all()
