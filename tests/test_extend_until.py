@@ -121,6 +121,9 @@ def test_extension_rule():
     assert extension_of(run, {"steps_done": 2000, "stop_reason": "settled", "until": run.until.as_dict()}) is None
     changed = {**run.until.as_dict(), "confidence": 0.9}
     assert "other run.until" in extension_of(run, {"steps_done": 2000, "stop_reason": "settled", "until": changed})
+    # the check analysed with another transient: its verdict does not hold for this config
+    assert extension_of(run, {"steps_done": 2000, "stop_reason": "settled", "until": run.until.as_dict(),
+                              "transient": 0.5}) is not None
 
 
 def test_until_stops_a_clear_case_early_and_at_the_same_step_after_a_kill(tmp_path):

@@ -9,8 +9,9 @@ compared without it, so sweeps computed by earlier versions stay reusable and ex
 A finished run (``status.json`` says ``done``) needs more steps when
 
 - it stopped at its cap (``stop_reason`` "steps") and ``run.steps`` is now larger, or
-- it stopped because it was settled under ``run.until`` settings other than the present
-  ones (changed or removed) and ``run.steps`` is larger than what it did.
+- it stopped because it was settled under ``run.until`` settings (or a ``run.transient``,
+  which the check's analysis uses) other than the present ones and ``run.steps`` is
+  larger than what it did.
 
 It is then *extended*: continued from its final checkpoint, so that its trajectory is bit
 for bit the one a run with the new settings from the start would have written (for a
@@ -61,7 +62,7 @@ def extension_of(run: RunSettings, status: Mapping[str, Any]) -> str | None:
         The present config's run section.
     status : mapping
         The run's ``status.json`` (or the ``/parameters`` of its trajectory), with
-        ``steps_done``, ``stop_reason`` and, for a settled run, ``until``.
+        ``steps_done``, ``stop_reason`` and, for a settled run, ``until`` and ``transient``.
     """
     done = int(status.get("steps_done", 0) or 0)
     if done >= run.steps:
@@ -73,9 +74,10 @@ def extension_of(run: RunSettings, status: Mapping[str, Any]) -> str | None:
                 until = json.loads(until)
             except ValueError:
                 until = None
-        if run.until is not None and until == run.until.as_dict():
+        transient = status.get("transient", run.transient)  # status files before it was recorded
+        if run.until is not None and until == run.until.as_dict() and float(transient) == run.transient:
             return None
-        return f"settled under other run.until settings; continue to check up to {run.steps} steps" \
+        return f"settled under other run.until (or transient) settings; continue to check up to {run.steps} steps" \
             if run.until is not None else f"settled earlier; run.until removed: to {run.steps} steps"
     return f"to {run.steps} steps"
 

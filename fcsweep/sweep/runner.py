@@ -479,13 +479,14 @@ def _compute(cfg, spec, rd: RunDirectory, prev: dict, progress, force: bool, t0:
             done = int(par.get("steps_done", par.get("steps", steps)))
             if verify_trajectory(traj, done // se + 1) is None:
                 ended = {"steps_done": done, "stop_reason": par.get("stop_reason") or STOP_STEPS,
-                         "until": par.get("until_json")}
+                         "until": par.get("until_json"), "transient": par.get("transient", cfg.run.transient)}
                 extension = extension_of(cfg.run, ended)
                 if extension is None:
                     if partial.exists():
                         partial.unlink()
                     rd.begin({"steps": steps, "fingerprint": fp_any, "attempts": int(prev.get("attempts", 1)),
-                              "until": json.loads(par.get("until_json") or "null")})
+                              "until": json.loads(par.get("until_json") or "null"),
+                              "transient": ended["transient"]})
                     rd.mark_done(steps_done=done, projections=int(par.get("projections_final", 0)),
                                  stop_reason=ended["stop_reason"], reason="recovered finished trajectory",
                                  **{k: prev[k] for k in schema.COST_KEYS if k in prev})
@@ -562,7 +563,7 @@ def _compute(cfg, spec, rd: RunDirectory, prev: dict, progress, force: bool, t0:
     n_cells = int(spec.params["N"])
     start_step = int(sim.state.step)
     rd.begin({"steps": int(steps), "fingerprint": fp_any, "attempts": attempts,
-              "until": until.as_dict() if until else None})
+              "until": until.as_dict() if until else None, "transient": cfg.run.transient})
     reason = "; ".join(notes)
     last_check: dict[str, Any] = {}
 
