@@ -1,5 +1,5 @@
 """Command line, in the order of the work: ``fcsweep validate | bench | simulate | status |
-analyze | aggregate | plot | movie``, and the helpers ``list-runs`` and ``compile``.
+analyze | aggregate | plot | movie | refine``, and the helpers ``list-runs`` and ``compile``.
 
 Every command takes an optional CONFIG (a sweep YAML file); without one it uses the
 built-in demo sweep (``fcsweep/data/smoke.yaml``, identical to ``configs/smoke.yaml``),
@@ -165,15 +165,7 @@ def simulate(config, output, workers, executor, scheduler, task_index, retry_fai
             click.echo(f"fcsweep: --workers {workers} is more than the {processes} core(s) available; "
                        f"using {processes}", err=True)
             workers = processes
-    from fcsweep.sweep.space import check_space
-
-    try:
-        note = check_space(cfg, specs)
-    except OSError as exc:
-        click.echo(f"fcsweep: {exc.strerror or exc}", err=True)
-        sys.exit(2)
-    if note:
-        click.echo(f"fcsweep: warning: {note}", err=True)
+    _check_space(cfg, specs)
     src = config or f"built-in demo ({builtin_demo_path().name})"
     out_dir = Path(cfg.output).resolve()
     stale_after = lock_timeout or DEFAULT_STALE_AFTER
@@ -380,10 +372,13 @@ def bench(config, compare, steps, warm, threads, workers, as_json):
     processes, _ = worker_layout(workers)
     wall = wall_time([w for _, w in per_run], processes)
     share = cpu_share()
+    cpu_min = sum(r.cpu_seconds_min for r in rows if r.own)  # run.until: every run settles at its first check
     if as_json:
         click.echo(json.dumps({"rows": [{**r.setting, "runs": r.runs, "cell_steps": r.cell_steps,
-                                         "cell_steps_per_s": r.rate, "cpu_seconds": r.cpu_seconds} for r in rows],
-                               "sweep_cpu_seconds": cpu, "processes": processes,
+                                         "cell_steps_min": r.cell_steps_min, "cell_steps_per_s": r.rate,
+                                         "cpu_seconds": r.cpu_seconds, "cpu_seconds_min": r.cpu_seconds_min}
+                                        for r in rows],
+                               "sweep_cpu_seconds": cpu, "sweep_cpu_seconds_min": cpu_min, "processes": processes,
                                "sweep_wall_seconds": wall, "threads": threads, "cpu_share_now": share},
                               indent=1))
         return
@@ -399,6 +394,12 @@ def bench(config, compare, steps, warm, threads, workers, as_json):
     if share < 0.9:
         click.echo(f"note: other jobs share this machine (this process gets {share:.0%} of a core now); the times "
                    "above assume free cores: `fcsweep simulate --dry-run` estimates at the load it sees")
+    if cfg.run.until:
+        from fcsweep.sweep.bench import first_stop
+
+        click.echo(f"with run.until: between {format_duration(cpu_min)} (every run settled at its first check, "
+                   f"{first_stop(cfg.run)} steps) and {format_duration(cpu)} of CPU (every run to the cap, "
+                   f"{cfg.run.steps} steps), plus the checks")
 
 
 @cli.command()
@@ -567,6 +568,131 @@ def movie(run, config, output, fps, every, dpi, out_file):
         _say(str(exc))
         sys.exit(2)
     click.echo(str(path))
+
+
+@cli.command()
+@CONFIG_ARG
+@OUTPUT_OPT
+@click.option("--rounds", "-r", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Refinement rounds (each adds points, then simulates, analyses and aggregates).")
+@click.option("--max-points", "-p", type=click.IntRange(min=1), default=None,
+              help="Most grid points added per round (highest priority first) [no limit].")
+@click.option("--workers", "-j", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Runs computed (and analysed) at once on this machine.")
+@click.option("--add-only", is_flag=True,
+              help="Only analyse, aggregate and add one round of points; compute nothing (job arrays).")
+@click.option("--quiet", "-q", is_flag=True, help="No progress output.")
+def refine(config, output, rounds, max_points, workers, add_only, quiet):
+    """Add grid points where labels change, then simulate, analyse and aggregate them.
+
+    Completes the sweep first (simulate, analyze, aggregate: done runs are reused); then,
+    each round, adds the midpoint of every pair of neighbours along a swept axis whose
+    phase or percolation labels differ or are undetermined (geometric midpoints on
+    log ranges), records the points in <output>/refinement.json and computes them.
+    With --add-only, one round of points is added from the runs done so far and their
+    run indices printed, for a job array to compute.
+    """
+    cfg = _load(config, output, to_run=True)
+    failed = 0
+    for k in range(1 if add_only else rounds + 1):
+        if not add_only:
+            failed = _refine_compute(cfg, workers, quiet)
+        path = _refine_analyse(cfg, workers)
+        if k == rounds:
+            break
+        before = len(_runs(cfg))
+        if not _refine_add(cfg, path, max_points):
+            break
+        if add_only:
+            last = len(_runs(cfg)) - 1
+            click.echo(f"fcsweep: new runs {before}..{last}, e.g. sbatch --array={before}-{last} "
+                       f"workflows/slurm_array.sh {config}", err=True)
+    if failed:
+        sys.exit(1)
+
+
+def _runs(cfg: SweepConfig) -> list:
+    """The runs of a sweep, refined points included (exit 2 if the refinement file does not fit)."""
+    try:
+        return cfg.runs()
+    except ConfigError as exc:
+        click.echo(f"fcsweep: invalid config: {exc}", err=True)
+        sys.exit(2)
+
+
+def _check_space(cfg: SweepConfig, specs) -> None:
+    """Exit 2 if one run's trajectory cannot fit on the output's disk; warn if all may not."""
+    from fcsweep.sweep.space import check_space
+
+    try:
+        note = check_space(cfg, specs)
+    except OSError as exc:
+        click.echo(f"fcsweep: {exc.strerror or exc}", err=True)
+        sys.exit(2)
+    if note:
+        click.echo(f"fcsweep: warning: {note}", err=True)
+
+
+def _refine_compute(cfg: SweepConfig, workers: int, quiet: bool) -> int:
+    """Simulate every run not done yet (refine's step 1); returns the number that failed."""
+    from fcsweep.sweep import interrupt
+    from fcsweep.sweep.executors import run_sweep
+    from fcsweep.sweep.progress import Progress
+
+    specs = _runs(cfg)
+    _check_space(cfg, specs)
+    progress = Progress(len(specs), enabled=not quiet)
+    previous = interrupt.install()
+    try:
+        outcomes = run_sweep(cfg, specs, executor="process" if workers > 1 else "serial", workers=workers,
+                             progress=progress)
+    finally:
+        progress.close()
+        interrupt.restore(previous)
+    sig = interrupt.requested()
+    if sig is not None:
+        click.echo(f"fcsweep: stopped by {interrupt.reason()}; run the same command again to go on", err=True)
+        sys.exit(interrupt.exit_code(sig))
+    failed = sum(o.outcome == "failed" for o in outcomes)
+    click.echo(f"fcsweep: {len(specs)} runs ({sum(o.outcome == 'done' for o in outcomes)} computed now, "
+               f"{failed} failed)", err=True)
+    return failed
+
+
+def _refine_analyse(cfg: SweepConfig, workers: int) -> Path:
+    """Analyse and aggregate (refine's step 2); returns the path of phase_diagram.nc."""
+    from fcsweep.analysis.aggregate import aggregate_sweep
+    from fcsweep.analysis.pipeline import analyze_sweep
+
+    analyze_sweep(cfg, workers=workers)
+    path = aggregate_sweep(cfg)
+    click.echo(f"fcsweep: aggregated -> {path}", err=True)
+    return path
+
+
+def _refine_add(cfg: SweepConfig, dataset: Path, max_points: int | None) -> int:
+    """Propose and record one round of points (refine's step 3); returns how many."""
+    import datetime as _dt
+
+    import xarray as xr
+
+    from fcsweep.analysis.phase import PERCOLATION_FLAGS, PHASE_FLAGS
+    from fcsweep.io.refinement import append_round
+    from fcsweep.sweep.refine import point_labels, propose_points
+
+    with xr.open_dataset(dataset) as ds:
+        labels = point_labels(ds, _runs(cfg), cfg.swept)
+    new = propose_points(labels, cfg.swept, log_axes=cfg.log_axes, max_points=max_points,
+                         flag_names={"phase": PHASE_FLAGS, "percolated": PERCOLATION_FLAGS})
+    if not new:
+        click.echo("fcsweep: no neighbours with differing or undetermined labels: nothing to refine", err=True)
+        return 0
+    number = append_round(cfg.output, [p.point for p in new], [p.why for p in new],
+                          _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"))
+    click.echo(f"fcsweep: refinement round {number}: {len(new)} point(s) added", err=True)
+    for p in new:
+        click.echo(f"  {' '.join(f'{a}={v}' for a, v in p.point.items())}: {p.why}")
+    return len(new)
 
 
 def main() -> None:

@@ -7,7 +7,8 @@ A sweep file has six top-level sections (see ``results_schema.md`` and the READM
     replicates: 1
     grid: {eta: [0.01, 0.1], v0: {start: 0.01, stop: 0.06, num: 6}, N: [1024]}
     model: {density: 0.95, Dr: 0.01, dt: 0.005, modes: 6, contour_points: 40}
-    run: {steps: 1000000, sample_every: 1000, checkpoint_every: 100000, transient: 0.2}
+    run: {steps: 1000000, sample_every: 1000, checkpoint_every: 100000, transient: 0.2,
+          until: {check_every: 100000, min_steps: 200000, confidence: 0.95}}   # until optional
 
 Everything is validated before anything runs; every problem raises :class:`ConfigError`
 whose message names the key, the offending value and what is allowed.
@@ -22,6 +23,12 @@ sorted.  So ``eta: 1`` and ``eta: 1.0`` give the same run.  The run's seed is
 ``SeedSequence([seed, int(run_id, 16)]).generate_state(1, uint64)[0] >> 1`` (a
 deterministic 63-bit integer), so every run has independent noise and the same run always
 gets the same noise.
+
+The run length (``run.steps``, ``run.until``) is not part of the id: raising the step
+count continues a finished run instead of recomputing it (see
+:func:`fcsweep.sweep.runner.fingerprint_of`).  Grid points added by ``fcsweep refine``
+are read from ``<output>/refinement.json`` (:mod:`fcsweep.io.refinement`) and follow the
+product grid's runs, so existing run indices never change.
 
 Ranges ``{start, stop, num}`` expand with ``numpy.linspace`` (``log: true``:
 ``numpy.geomspace``) and each value is rounded to 12 significant digits, so a range and
@@ -52,6 +59,8 @@ __all__ = [
     "SweepConfig",
     "RunSpec",
     "RunSettings",
+    "UntilSettings",
+    "UNTIL_OBSERVABLES",
     "StoreSettings",
     "MODEL_DEFAULTS",
     "FIELDS",
@@ -92,19 +101,54 @@ DEFAULT_FIELDS = FIELDS
 COMPRESSIONS = ("gzip", "lzf", "none")
 
 TOP_KEYS = ("output", "seed", "replicates", "grid", "model", "run", "description")
-RUN_KEYS = ("steps", "sample_every", "checkpoint_every", "transient")
+RUN_KEYS = ("steps", "sample_every", "checkpoint_every", "transient", "until")
+UNTIL_KEYS = ("check_every", "min_steps", "confidence", "rel_error")
+#: Observables ``run.until.rel_error`` may target: scalars of the analysis that carry a
+#: 1-sigma error ``<name>_err`` (:data:`fcsweep.analysis.pipeline.SCALARS`).
+UNTIL_OBSERVABLES = ("D_eff", "D_s", "q_mean", "q_frac_above", "rho_d", "largest_cluster_fraction", "psi6")
+#: Default ``run.until.confidence``: both labels at 95 % probability.
+UNTIL_CONFIDENCE = 0.95
 OUTPUT_KEYS = ("dir", "fields", "compression", "compression_level")
 RANGE_KEYS = ("start", "stop", "num", "log")
 
 
 @dataclass(frozen=True)
+class UntilSettings:
+    """When a run may stop before ``run.steps`` (the cap): its answer is settled.
+
+    At every step that is a multiple of ``check_every`` and at least ``min_steps`` (and
+    at the cap) the run analyses its own frames; it stops when the phase and percolation
+    labels are determined with probability >= ``confidence`` and every observable of
+    ``rel_error`` has ``err <= rel_error[name] * |value|``.
+    """
+
+    check_every: int
+    min_steps: int
+    confidence: float = UNTIL_CONFIDENCE
+    rel_error: tuple[tuple[str, float], ...] = ()
+
+    def as_dict(self) -> dict[str, Any]:
+        """Plain dict (``rel_error`` as a mapping), as written into status and trajectory files."""
+        return {"check_every": self.check_every, "min_steps": self.min_steps,
+                "confidence": self.confidence, "rel_error": dict(self.rel_error)}
+
+    def is_check_step(self, step: int, cap: int) -> bool:
+        """Whether a run checks itself at ``step`` (a check step or the cap, past ``min_steps``)."""
+        return step > 0 and step >= self.min_steps and (step % self.check_every == 0 or step == cap)
+
+
+@dataclass(frozen=True)
 class RunSettings:
-    """Integration length and output cadence shared by every run of a sweep."""
+    """Integration length and output cadence shared by every run of a sweep.
+
+    ``steps`` is the length of every run, or its cap when ``until`` is given.
+    """
 
     steps: int
     sample_every: int
     checkpoint_every: int
     transient: float = 0.2
+    until: UntilSettings | None = None
 
     @property
     def n_frames(self) -> int:
@@ -168,6 +212,9 @@ class SweepConfig:
     ----------
     output : Path
         Sweep directory (relative paths resolve against the working directory).
+    log_axes : tuple of str
+        Swept parameters given as ``{..., log: true}`` ranges (``fcsweep refine`` bisects
+        them geometrically).
     seed : int
         Base seed.
     replicates : int
@@ -190,6 +237,7 @@ class SweepConfig:
     store: StoreSettings = field(default_factory=StoreSettings)
     description: str = ""
     source: str = "<string>"
+    log_axes: tuple[str, ...] = ()
 
     @property
     def swept(self) -> list[str]:
@@ -197,7 +245,15 @@ class SweepConfig:
         return list(self.grid)
 
     def runs(self) -> list[RunSpec]:
-        """All runs: grid points in grid order (last key fastest), replicates innermost."""
+        """All runs: grid points in grid order (last key fastest), replicates innermost,
+        then the points ``fcsweep refine`` added (``<output>/refinement.json``) in the
+        order they were added.
+
+        Raises
+        ------
+        ConfigError
+            If the refinement file does not fit this grid.
+        """
         return _expand(self)
 
     def run_dir(self, run_id: str) -> Path:
@@ -216,7 +272,8 @@ class SweepConfig:
             "replicates": self.replicates,
             "grid": {k: list(v) for k, v in self.grid.items()},
             "model": dict(self.model),
-            "run": dataclasses.asdict(self.run),
+            "run": {**dataclasses.asdict(self.run),
+                    "until": self.run.until.as_dict() if self.run.until else None},
             "store": {**dataclasses.asdict(self.store), "fields": list(self.store.fields)},
             "description": self.description,
         }
@@ -503,6 +560,7 @@ def _validate(data, source: str) -> SweepConfig:
         raise ConfigError("grid = {} is empty; sweep at least one model parameter")
     _check_keys(grid_in, list(MODEL_DEFAULTS), "in grid: ")
     grid = {str(k): _grid_values(str(k), v) for k, v in grid_in.items()}
+    log_axes = tuple(str(k) for k, v in grid_in.items() if isinstance(v, Mapping) and v.get("log") is True)
 
     # model
     model_in = data.get("model") or {}
@@ -549,7 +607,9 @@ def _validate(data, source: str) -> SweepConfig:
     transient = _real(run_in.get("transient", 0.2), "run.transient")
     if not 0.0 <= transient < 1.0:
         raise ConfigError(f"run.transient = {transient!r} is out of range; allowed 0 <= transient < 1")
-    run = RunSettings(steps, sample_every, checkpoint_every, transient)
+    until = _until(run_in["until"], steps, sample_every, checkpoint_every) if run_in.get("until") is not None \
+        else None
+    run = RunSettings(steps, sample_every, checkpoint_every, transient, until)
 
     return SweepConfig(
         output=output,
@@ -561,7 +621,46 @@ def _validate(data, source: str) -> SweepConfig:
         store=store,
         description=description,
         source=source,
+        log_axes=log_axes,
     )
+
+
+def _until(until_in, steps: int, sample_every: int, checkpoint_every: int) -> UntilSettings:
+    """Validate ``run.until``; every message names the key and its allowed range."""
+    if not isinstance(until_in, Mapping):
+        raise ConfigError(f"run.until = {until_in!r} must be a mapping with keys {', '.join(UNTIL_KEYS)}")
+    _check_keys(until_in, UNTIL_KEYS, "in run.until: ")
+    if "check_every" not in until_in:
+        raise ConfigError(f"run.until.check_every is missing; give the steps between checks, a multiple of "
+                          f"run.checkpoint_every = {checkpoint_every} and at most run.steps = {steps}")
+    check_every = _int(until_in["check_every"], "run.until.check_every", minimum=1)
+    if check_every % checkpoint_every or check_every > steps:
+        raise ConfigError(
+            f"run.until.check_every = {check_every} is not allowed; it must be a multiple of "
+            f"run.checkpoint_every = {checkpoint_every} (checks happen at checkpoints) and at most "
+            f"run.steps = {steps}")
+    min_steps = _int(until_in.get("min_steps", check_every), "run.until.min_steps", minimum=0)
+    if min_steps > steps:
+        raise ConfigError(f"run.until.min_steps = {min_steps} is out of range; allowed 0 <= min_steps <= "
+                          f"run.steps = {steps}")
+    confidence = _real(until_in.get("confidence", UNTIL_CONFIDENCE), "run.until.confidence")
+    if not 0.5 <= confidence < 1.0:
+        raise ConfigError(f"run.until.confidence = {confidence!r} is out of range; allowed 0.5 <= confidence < 1 "
+                          "(the probability both labels must reach)")
+    rel_in = until_in.get("rel_error") or {}
+    if not isinstance(rel_in, Mapping):
+        raise ConfigError(f"run.until.rel_error = {rel_in!r} must be a mapping observable -> target, "
+                          f"observables from {list(UNTIL_OBSERVABLES)}")
+    _check_keys(rel_in, UNTIL_OBSERVABLES, "in run.until.rel_error: ")
+    rel = []
+    for name in UNTIL_OBSERVABLES:
+        if name in rel_in:
+            x = _real(rel_in[name], f"run.until.rel_error.{name}")
+            if not 0.0 < x <= 1.0:
+                raise ConfigError(f"run.until.rel_error.{name} = {x!r} is out of range; allowed 0 < target <= 1 "
+                                  "(1-sigma error / |value|)")
+            rel.append((name, x))
+    return UntilSettings(check_every, min_steps, confidence, tuple(rel))
 
 
 # ---------------------------------------------------------------------------- run ids
@@ -592,10 +691,29 @@ def seed_of(base_seed: int, run_id: str) -> int:
 
 
 def _expand(cfg: SweepConfig) -> list[RunSpec]:
+    from fcsweep.io.refinement import RefinementError, read_points
+
     names = list(cfg.grid)
+    try:
+        extra = read_points(cfg.output)
+    except RefinementError as exc:
+        raise ConfigError(str(exc)) from None
+    points = []
+    for k, point in enumerate(extra):
+        if sorted(point) != sorted(names):
+            raise ConfigError(
+                f"{cfg.output}/refinement.json point {k} has parameters {sorted(point)} but the grid sweeps "
+                f"{sorted(names)}; refined points belong to the grid they were made for (move the file away "
+                "to use this config with this output directory)")
+        points.append(tuple(_check_param(n, point[n], "refinement") for n in names))
     specs = []
     index = 0
-    for combo in itertools.product(*(cfg.grid[n] for n in names)):
+    seen = set()
+    for combo in itertools.chain(itertools.product(*(cfg.grid[n] for n in names)), points):
+        key = tuple(_canon_value(n, v) for n, v in zip(names, combo))
+        if key in seen:
+            continue
+        seen.add(key)
         for rep in range(cfg.replicates):
             params = dict(cfg.model)
             params.update(zip(names, combo))

@@ -116,7 +116,7 @@ def test_analysis_pool_gives_the_serial_results_without_oversubscribing(sweep, m
     serial = {r.run_id: read_analysis(cfg.output / "runs" / r.run_id / "analysis.h5")["scalars"] for r in runs[:3]}
     seen = []
     real = pipeline.ProcessPoolExecutor
-    monkeypatch.setattr("fcsweep.sweep.layout.available_cores", lambda: 2)
+    monkeypatch.setattr("fcsweep.io.machine.available_cores", lambda: 2)
     monkeypatch.setattr(pipeline, "ProcessPoolExecutor",
                         lambda **kw: seen.append((kw["max_workers"], kw["initargs"])) or real(**kw))
     results = analyze_sweep(cfg, workers=5, force=True)

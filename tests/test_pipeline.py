@@ -236,7 +236,7 @@ def test_status_shows_pending_interrupted_and_progress(done_sweep, tmp_path):
 
 def test_process_pool_matches_serial(done_sweep, tmp_path, monkeypatch):
     """Also: more workers than cores are capped at the cores (no oversubscription)."""
-    monkeypatch.setattr("fcsweep.sweep.layout.available_cores", lambda: 2)
+    monkeypatch.setattr("fcsweep.io.machine.available_cores", lambda: 2)
     path, ref = done_sweep
     out = tmp_path / "pool"
     r = CliRunner().invoke(cli, ["simulate", str(path), "-o", str(out), "--workers", "5"])
@@ -298,15 +298,16 @@ def test_run_stops_without_writing_when_lock_is_taken_over(done_sweep, tmp_path)
 
 
 def test_changed_run_settings_are_refused_not_mixed(done_sweep, tmp_path):
-    """Same output dir, more steps: done runs are not silently reused nor overwritten."""
+    """Same output dir, other frame spacing: done runs are not silently reused nor
+    overwritten (more steps extend them instead: tests/test_extend_until.py)."""
     path, cfg = done_sweep
-    longer = tmp_path / "longer.yaml"
-    longer.write_text(path.read_text().replace("steps: 200,", "steps: 400,"))
+    other = tmp_path / "other.yaml"
+    other.write_text(path.read_text().replace("sample_every: 20,", "sample_every: 50,"))
     traj = cfg.run_dir(cfg.runs()[0].run_id) / schema.TRAJECTORY
     before = traj.stat().st_mtime_ns
-    r = CliRunner().invoke(cli, ["simulate", str(longer), "--task-index", "0"])
+    r = CliRunner().invoke(cli, ["simulate", str(other), "--task-index", "0"])
     assert r.exit_code == 1
-    assert "computed with other run settings (steps 200 -> 400)" in r.output
+    assert "computed with other run settings (sample_every 20 -> 50)" in r.output
     assert traj.stat().st_mtime_ns == before
     assert read_status(traj.parent)["status"] == "done"
 
@@ -326,9 +327,9 @@ def test_spilling_frames_between_checkpoints_gives_same_file(done_sweep, tmp_pat
 @pytest.mark.parametrize("cores,workers,layout", [(2, 1, (1, 2)), (2, 2, (2, 1)), (2, 8, (2, 1)), (16, 3, (3, 5)),
                                                   (1, 4, (1, 1))])
 def test_worker_layout_never_oversubscribes(cores, workers, layout, monkeypatch):
-    from fcsweep.sweep.layout import worker_layout
+    from fcsweep.io.machine import worker_layout
 
-    monkeypatch.setattr("fcsweep.sweep.layout.available_cores", lambda: cores)
+    monkeypatch.setattr("fcsweep.io.machine.available_cores", lambda: cores)
     processes, threads = worker_layout(workers)
     assert (processes, threads) == layout and processes * threads <= cores
 
@@ -336,7 +337,7 @@ def test_worker_layout_never_oversubscribes(cores, workers, layout, monkeypatch)
 @pytest.mark.parametrize("text,cpus", [("200000 100000\n", 2), ("150000 100000", 2), ("max 100000", None),
                                        ("garbage", None)])
 def test_cgroup_cpu_quota_caps_the_cores(text, cpus, tmp_path):
-    from fcsweep.sweep.layout import cgroup_cpu_quota
+    from fcsweep.io.machine import cgroup_cpu_quota
 
     f = tmp_path / "cpu.max"
     f.write_text(text)

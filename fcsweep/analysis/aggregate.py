@@ -315,7 +315,31 @@ def build_dataset(config) -> xr.Dataset:
     }
     if commits:
         ds.attrs["git_commit"] = " ".join(sorted(commits))
+    ds.attrs.update(cost_attributes(config))
     return ds
+
+
+#: status.json cost keys -> NetCDF attribute of their sum over the sweep's runs.
+COST_ATTRIBUTES = {"cell_steps": "total_cell_steps", "cell_steps_computed": "total_cell_steps_computed",
+                   "cpu_seconds": "total_cpu_seconds", "check_cpu_seconds": "total_check_cpu_seconds",
+                   "wall_seconds": "total_wall_seconds"}
+
+
+def cost_attributes(config) -> dict:
+    """What the sweep cost, summed over its runs' ``status.json`` (cell-steps in the
+    trajectories and integrated, CPU seconds of the runs and of their ``run.until``
+    checks, wall seconds) and how its runs stopped (``runs_settled``, ``runs_at_cap``)."""
+    totals = dict.fromkeys(COST_ATTRIBUTES, 0.0)
+    stops = {"settled": 0, "steps": 0}
+    for spec in config.runs():
+        st = _read_status(Path(config.output) / "runs" / spec.run_id) or {}
+        for k in totals:
+            totals[k] += float(st.get(k) or 0.0)
+        if st.get("status") == "done" and st.get("stop_reason", "steps") in stops:
+            stops[st.get("stop_reason", "steps")] += 1
+    out = {COST_ATTRIBUTES[k]: np.float64(v) for k, v in totals.items()}
+    out.update(runs_settled=np.int32(stops["settled"]), runs_at_cap=np.int32(stops["steps"]))
+    return out
 
 
 def _reduce_replicates(ds: xr.Dataset, settings) -> None:

@@ -45,7 +45,7 @@ from fcsweep.analysis.msd import log_lag_indices, msd_curve
 from fcsweep.analysis.phase import MIN_CONFIDENCE, classify_percolation, classify_phase
 from fcsweep.analysis.stats import time_average
 from fcsweep.analysis.trajectory import TrajectoryError, open_trajectory
-from fcsweep.sweep.layout import worker_layout
+from fcsweep.io.machine import worker_layout
 
 ANALYSIS_FILE = "analysis.h5"
 TRAJECTORY_FILE = "trajectory.h5"

@@ -231,17 +231,20 @@ class RunDirectory:
     def mark_failed(self, reason: str, cause: str, **fields: Any) -> bool:
         """Failed; ``cause`` is ``schema.CAUSE_IO`` (retried by the next launch) or
         ``schema.CAUSE_SIMULATION`` / ``CAUSE_CONFLICT`` (not retried without
-        ``--retry-failed``).  Best effort."""
+        ``--retry-failed``).  ``stop_reason`` becomes "failed"; steps done and cost are kept.
+        Best effort."""
         prev = self.status()
-        keep = {k: prev[k] for k in ("steps_done", "projections", "wall_seconds") if k in prev}
-        return self._write(schema.FAILED, best_effort=True, reason=reason, cause=cause, **{**keep, **fields})
+        keep = {k: prev[k] for k in ("steps_done", "projections", *schema.COST_KEYS) if k in prev}
+        return self._write(schema.FAILED, best_effort=True, reason=reason, cause=cause, stop_reason="failed",
+                           **{**keep, **fields})
 
     def mark_corrupt(self, problem: str) -> bool:
         """A done run whose trajectory fails verification (best effort)."""
         prev = self.status()
         return self._write(schema.CORRUPT, best_effort=True, reason=f"trajectory.h5 damaged: {problem}",
                            steps_done=0, steps=prev.get("steps"), fingerprint=prev.get("fingerprint"),
-                           attempts=prev.get("attempts", 1))
+                           attempts=prev.get("attempts", 1),
+                           **{k: prev[k] for k in schema.COST_KEYS if k in prev})
 
     def failed_for_good(self) -> bool:
         """A failure that relaunching alone will not fix (not an I/O failure)."""

@@ -9,6 +9,8 @@ CHECKPOINT = "checkpoint.npz"
 STATUS = "status.json"
 LOCK = "run.lock"
 ANALYSIS = "analysis.h5"
+#: Written by a failed analysis (``fcsweep.analysis.pipeline.ANALYSIS_ERROR_FILE``).
+ANALYSIS_ERROR = "analysis_error.txt"
 
 #: Group of the particle time series and the box.
 PARTICLES = "/particles/cells"
@@ -28,6 +30,11 @@ H5MD_VERSION = (1, 1)
 DONE, FAILED, RUNNING, PENDING = "done", "failed", "running", "pending"
 INTERRUPTED, CORRUPT = "interrupted", "corrupt"
 STATUSES = (DONE, FAILED, RUNNING, PENDING, INTERRUPTED, CORRUPT)
+
+#: ``status.json`` keys of a run's cost, kept through every state change: wall and CPU
+#: seconds of all attempts, CPU seconds of the ``run.until`` checks, cell-steps in the
+#: trajectory (N x steps done) and cell-steps integrated (including work redone after kills).
+COST_KEYS = ("wall_seconds", "cpu_seconds", "check_cpu_seconds", "cell_steps", "cell_steps_computed")
 
 #: ``status.json`` key ``cause`` of a failed run.
 CAUSE_SIMULATION, CAUSE_IO, CAUSE_CONFLICT = "simulation", "io", "conflict"

@@ -85,11 +85,28 @@ class BenchRow:
     cell_steps: float
     rate: float
     own: bool  # the sweep's own quadrature (not a --compare alternative)
+    cell_steps_min: float | None = None  # with run.until: every run settled at its first check
 
     @property
     def cpu_seconds(self) -> float:
-        """Serial time of all runs with this setting at the measured rate."""
+        """Serial time of all runs with this setting at the measured rate (at the cap)."""
         return self.cell_steps / self.rate
+
+    @property
+    def cpu_seconds_min(self) -> float:
+        """With ``run.until``: the time if every run stops at its first possible check
+        (``cpu_seconds`` without it); the ``until`` checks themselves are not counted."""
+        return (self.cell_steps if self.cell_steps_min is None else self.cell_steps_min) / self.rate
+
+
+def first_stop(run) -> int:
+    """Fewest steps a run can do: the cap, or with ``run.until`` its first check step
+    (the first multiple of ``check_every`` at or past ``min_steps``, at most the cap)."""
+    if run.until is None:
+        return run.steps
+    u = run.until
+    first = -(-max(u.min_steps, 1) // u.check_every) * u.check_every
+    return min(run.steps, first)
 
 
 def bench_sweep(cfg, *, steps=200, warm=2000, quadratures=None, threads=1, log=None) -> list[BenchRow]:
@@ -98,7 +115,9 @@ def bench_sweep(cfg, *, steps=200, warm=2000, quadratures=None, threads=1, log=N
 
     Returns one :class:`BenchRow` per (setting, quadrature), in order of first
     appearance; ``cell_steps`` is N x run.steps summed over the runs of the setting
-    (the same runs for every quadrature compared).
+    (the same runs for every quadrature compared), and with ``run.until``
+    ``cell_steps_min`` is N x :func:`first_stop` summed likewise: the sweep costs
+    between the two.
     """
     groups: dict[tuple, list] = {}
     for spec in cfg.runs():
@@ -109,6 +128,7 @@ def bench_sweep(cfg, *, steps=200, warm=2000, quadratures=None, threads=1, log=N
         base = dict(specs[0].params)
         rules = [base["quadrature"]] if not quadratures or base["modes"] == 0 else list(quadratures)
         work = float(sum(s.params["N"] for s in specs)) * cfg.run.steps
+        least = float(sum(s.params["N"] for s in specs)) * first_stop(cfg.run) if cfg.run.until else None
         for rule in rules:
             params = {**base, "quadrature": rule}
             per_block = max(int(steps * 1024 // params["N"]), 10)
@@ -116,7 +136,7 @@ def bench_sweep(cfg, *, steps=200, warm=2000, quadratures=None, threads=1, log=N
                 log(f"timing N={params['N']} modes={params['modes']} K={params['contour_points']} {rule} ...")
             rate = measure_throughput(params, steps=per_block, warm=warm, threads=threads)
             rows.append(BenchRow({k: params[k] for k in COST_KEYS}, len(specs), work, rate,
-                                 own=rule == base["quadrature"]))
+                                 own=rule == base["quadrature"], cell_steps_min=least))
     return rows
 
 

@@ -25,10 +25,10 @@ from typing import Sequence
 from fcsweep.config import RunSpec, SweepConfig, check_runnable
 from fcsweep.io import schema
 from fcsweep.io.locks import DEFAULT_STALE_AFTER
+from fcsweep.io.machine import worker_layout
 from fcsweep.io.rundir import RunDirectory
 from fcsweep.io.status import read_status
 from fcsweep.sweep import interrupt
-from fcsweep.sweep.layout import worker_layout
 from fcsweep.sweep.progress import Progress
 from fcsweep.sweep.runner import RunOutcome, run_one
 

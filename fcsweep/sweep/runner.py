@@ -11,9 +11,26 @@ belong to :class:`fcsweep.io.rundir.RunDirectory`):
 3. Frames are buffered in memory and appended in one open-append-close step at every
    checkpoint (and whenever the buffer passes ``SPILL_BYTES``); then the checkpoint is
    replaced atomically.  The HDF5 file is therefore closed almost all the time.
-4. When all steps are done the file is marked ``complete``, repacked into a fresh file
-   (appends leave unused space behind) that replaces ``trajectory.h5`` atomically, then
-   ``status.json`` says ``done``.
+4. With ``run.until``, at every check step (a multiple of ``until.check_every`` past
+   ``until.min_steps``, and at the cap) right after the checkpoint, the run analyses the
+   frames of its partial trajectory (:func:`fcsweep.analysis.settle.assess_trajectory`,
+   the estimators of ``fcsweep analyze``) and stops when every target is met.  The
+   verdict is a function of the stored frames only; a run resumed at a check step checks
+   again before going on, so a killed run stops at the same step with the same bits.
+5. When the run stops (cap reached or settled) the file is marked ``complete`` with its
+   ``stop_reason`` and ``steps_done``, repacked into a fresh file (appends leave unused
+   space behind) that replaces ``trajectory.h5`` atomically, then ``status.json`` says
+   ``done``.  The final ``checkpoint.npz`` stays.
+6. Extension (:mod:`fcsweep.sweep.length`): a done run that the present config wants
+   longer (``run.steps`` raised; ``run.until`` changed after it settled) has its
+   trajectory copied back to ``trajectory.h5.partial`` and resumes from the final
+   checkpoint like an interrupted run; the frames are bit for bit those of a run with
+   the new settings from the start.  A stale ``analysis.h5`` is removed.
+
+Cost: ``status.json`` records ``cell_steps`` (N x steps in the trajectory),
+``cell_steps_computed`` (all integrated, including work redone after kills),
+``cpu_seconds`` (process CPU time of every attempt, checks included) and
+``check_cpu_seconds`` (the part the ``until`` checks took).
 
 Faults, each handled once in :func:`run_one`:
 
@@ -72,6 +89,7 @@ from fcsweep.io.h5md import (
 from fcsweep.io.locks import DEFAULT_STALE_AFTER, LockLost
 from fcsweep.io.rundir import RunDirectory, ensure_free_space, io_error_cause, now_iso
 from fcsweep.sweep import interrupt
+from fcsweep.sweep.length import LENGTH_KEYS, STOP_SETTLED, STOP_STEPS, extension_of, frames_done, same_physics
 
 __all__ = ["RunOutcome", "run_one", "fingerprint_of", "trajectory_bytes", "SPILL_BYTES"]
 
@@ -111,13 +129,15 @@ class RunConflict(RuntimeError):
 
 
 def fingerprint_of(cfg: SweepConfig, spec: RunSpec, modes_fields: tuple[str, ...] | None = None) -> str:
-    """JSON string of everything that must match for a run directory to be reused."""
+    """JSON string of everything that must match for a run directory to be reused: the
+    physics of the trajectory frame by frame, not its length (``run.steps`` and
+    ``run.until`` are left out, so a longer run continues a shorter one; see
+    :func:`fcsweep.sweep.length.same_physics`)."""
     fields = modes_fields if modes_fields is not None else cfg.store.fields
     return json.dumps(
         {
             "run_id": spec.run_id,
             "seed": spec.seed,
-            "steps": cfg.run.steps,
             "sample_every": cfg.run.sample_every,
             "fields": list(fields),
         },
@@ -234,6 +254,7 @@ def _parameters(cfg: SweepConfig, spec: RunSpec, fields, fingerprint: str) -> di
         sample_every=cfg.run.sample_every,
         checkpoint_every=cfg.run.checkpoint_every,
         transient=cfg.run.transient,
+        until_json=_until_meta(cfg),
         run_id=spec.run_id,
         replicate=spec.replicate,
         base_seed=cfg.seed,
@@ -256,7 +277,8 @@ def _parameters(cfg: SweepConfig, spec: RunSpec, fields, fingerprint: str) -> di
 
 
 def _is_done(st: dict | None, traj: Path, fp: str) -> bool:
-    """Done with these settings; raises RunConflict if done with other settings."""
+    """Done with this physics (maybe shorter than wanted: :func:`extension_of`); raises
+    RunConflict if done with other settings."""
     if not st or st.get("status") != schema.DONE or not traj.exists():
         return False
     done_fp = st.get("fingerprint")
@@ -265,7 +287,7 @@ def _is_done(st: dict | None, traj: Path, fp: str) -> bool:
             done_fp = read_parameters(traj).get("fingerprint")
         except Exception:  # noqa: BLE001 - unreadable: recompute
             return False
-    if done_fp != fp:
+    if not same_physics(done_fp, fp):
         raise RunConflict(_conflict_message(traj, done_fp, fp))
     return True
 
@@ -273,7 +295,8 @@ def _is_done(st: dict | None, traj: Path, fp: str) -> bool:
 def _conflict_message(path, have, want) -> str:
     try:
         a, b = json.loads(have), json.loads(want)
-        diff = ", ".join(f"{k} {a.get(k)} -> {b.get(k)}" for k in sorted(b) if a.get(k) != b.get(k))
+        diff = ", ".join(f"{k} {a.get(k)} -> {b.get(k)}" for k in sorted(b) if a.get(k) != b.get(k)
+                         and k not in LENGTH_KEYS)
     except (TypeError, ValueError):
         diff = f"{have} -> {want}"
     return (f"{path} was computed with other run settings ({diff}); use another output "
@@ -331,8 +354,8 @@ def run_one(
     damaged = None
     try:
         st = rd.status()
-        if not force and _is_done(st, rd.trajectory, fp):
-            damaged = _damage(rd, cfg.run.n_frames)
+        if not force and _is_done(st, rd.trajectory, fp) and extension_of(cfg.run, st) is None:
+            damaged = _damage(rd, frames_done(cfg.run, st))
             if damaged is None:
                 return RunOutcome(spec.index, spec.run_id, "skipped", "already done", int(st.get("steps_done", 0)))
     except RunConflict as exc:
@@ -342,8 +365,8 @@ def run_one(
     t0 = time.time()
     try:
         st = rd.status()  # re-check: another process may have finished (or repaired) it meanwhile
-        if not force and _is_done(st, rd.trajectory, fp):
-            damaged = _damage(rd, cfg.run.n_frames)
+        if not force and _is_done(st, rd.trajectory, fp) and extension_of(cfg.run, st) is None:
+            damaged = _damage(rd, frames_done(cfg.run, st))
             if damaged is None:
                 return RunOutcome(spec.index, spec.run_id, "skipped", "already done", int(st.get("steps_done", 0)))
         if damaged is not None:
@@ -354,8 +377,9 @@ def run_one(
             out.message = f"recomputed damaged trajectory ({damaged})" + (f"; {out.message}" if out.message else "")
         return out
     except Interrupted as it:
+        prev = rd.status()
         rd.mark_interrupted(it.signal_name, it.step, steps_done=it.step,
-                            wall_seconds=round(float(rd.status().get("wall_seconds", 0.0)), 3))
+                            **{k: prev[k] for k in schema.COST_KEYS if k in prev})
         return RunOutcome(spec.index, spec.run_id, "interrupted",
                           f"{it.signal_name}: checkpoint at step {it.step}", it.step, time.time() - t0)
     except LockLost as exc:  # another process owns the run now: write nothing more
@@ -398,47 +422,101 @@ def _cleanup_temporaries(run_dir: Path) -> None:
             pass
 
 
+def _until_meta(cfg) -> str:
+    """``run.until`` as the JSON string stored in ``/parameters`` (``"null"`` without)."""
+    return json.dumps(cfg.run.until.as_dict() if cfg.run.until else None, sort_keys=True)
+
+
+def _reopen_for_extension(cfg, spec, rd: RunDirectory, par: dict, fp: str) -> str | None:
+    """Turn a finished trajectory back into a partial one that resumes from the final
+    checkpoint; returns ``None`` on success, else why it cannot (then the run is
+    recomputed from step 0, with the same bits, at full cost)."""
+    done = int(par.get("steps_done", par.get("steps", -1)))
+    ck = load_checkpoint(rd.checkpoint)
+    if ck is None:
+        return "no final checkpoint"
+    meta = split_meta(ck)[1]
+    n = frame_count(rd.trajectory)
+    if int(meta.get("step", -1)) != done or int(meta.get("frames", -1)) != n or \
+            not same_physics(meta.get("fingerprint"), fp):
+        return f"final checkpoint (step {meta.get('step')}) does not match the trajectory ({done} steps)"
+    tmp = rd.path / f".{schema.TRAJECTORY_PARTIAL}.extend.tmp"
+    ensure_free_space(rd.path, rd.trajectory.stat().st_size + SPACE_MARGIN, "reopening the trajectory")
+    repack(rd.trajectory, tmp)
+    set_attrs(tmp, schema.PARAMETERS, {"complete": 0, "stop_reason": ""})
+    os.replace(tmp, rd.partial)
+    fsync_dir(rd.path)
+    for name in (schema.ANALYSIS, schema.ANALYSIS_ERROR):  # they describe the shorter run
+        (rd.path / name).unlink(missing_ok=True)
+    rd.trajectory.unlink()
+    return None
+
+
 def _compute(cfg, spec, rd: RunDirectory, prev: dict, progress, force: bool, t0: float, stop) -> RunOutcome:
     from fcsweep.simulation import Simulation
 
     traj, partial, ckp = rd.trajectory, rd.partial, rd.checkpoint
     steps, se, ce = cfg.run.steps, cfg.run.sample_every, cfg.run.checkpoint_every
-    n_frames = cfg.run.n_frames
+    until = cfg.run.until
+    c0 = time.process_time()
     _cleanup_temporaries(rd.path)
 
     fp_any = fingerprint_of(cfg, spec)
     notes: list[str] = []
+    if prev.get("run_id") != spec.run_id:
+        prev = {}
+    # cost counts every attempt, recomputations (--force, damaged files) included
+    cost = {k: float(prev.get(k, 0.0) or 0.0) for k in schema.COST_KEYS}
+    if force:
+        prev = {}
     if traj.exists() and not force:
-        # Killed after the final rename but before status.json said done?
+        # Killed after the final rename but before status.json said done?  Or done and
+        # now wanted longer (extension)?
         try:
             par = read_parameters(traj)
-            if par.get("fingerprint") != fp_any:
+            if not same_physics(par.get("fingerprint"), fp_any):
                 raise RunConflict(_conflict_message(traj, par.get("fingerprint"), fp_any))
-            if verify_trajectory(traj, n_frames) is None:
-                if partial.exists():
-                    partial.unlink()
-                rd.begin({"steps": steps, "fingerprint": fp_any, "attempts": int(prev.get("attempts", 1)),
-                          "wall_seconds": float(prev.get("wall_seconds", 0.0))})
-                rd.mark_done(steps_done=steps, projections=int(par.get("projections_final", 0)))
-                return RunOutcome(spec.index, spec.run_id, "done", "recovered finished trajectory", steps)
+            done = int(par.get("steps_done", par.get("steps", steps)))
+            if verify_trajectory(traj, done // se + 1) is None:
+                ended = {"steps_done": done, "stop_reason": par.get("stop_reason") or STOP_STEPS,
+                         "until": par.get("until_json"), "transient": par.get("transient", cfg.run.transient)}
+                extension = extension_of(cfg.run, ended)
+                if extension is None:
+                    if partial.exists():
+                        partial.unlink()
+                    rd.begin({"steps": steps, "fingerprint": fp_any, "attempts": int(prev.get("attempts", 1)),
+                              "until": json.loads(par.get("until_json") or "null"),
+                              "transient": ended["transient"]})
+                    rd.mark_done(steps_done=done, projections=int(par.get("projections_final", 0)),
+                                 stop_reason=ended["stop_reason"], reason="recovered finished trajectory",
+                                 **{k: prev[k] for k in schema.COST_KEYS if k in prev})
+                    return RunOutcome(spec.index, spec.run_id, "done", "recovered finished trajectory", done)
+                why_not = _reopen_for_extension(cfg, spec, rd, par, fp_any)
+                if why_not is None:
+                    notes.append(f"extended from step {done} ({extension})")
+                else:
+                    notes.append(f"recomputed from step 0 to extend it: {why_not}")
+                    force = True  # the checkpoint does not fit the trajectory: do not use it
+            else:
+                notes.append("damaged trajectory.h5 replaced")
         except RunConflict:
             raise
-        except Exception:  # noqa: BLE001 - unreadable final file: recompute
-            pass
-        notes.append("damaged trajectory.h5 replaced")
+        except Exception as exc:  # noqa: BLE001 - unreadable final file: recompute
+            if io_error_cause(exc):
+                raise
+            notes.append("damaged trajectory.h5 replaced")
     if traj.exists():
         traj.unlink()
+        for name in (schema.ANALYSIS, schema.ANALYSIS_ERROR):
+            (rd.path / name).unlink(missing_ok=True)
 
     sim = None
     written = 0
-    if force or prev.get("run_id") != spec.run_id:
-        prev = {}
     attempts = int(prev.get("attempts", 0)) + 1
-    wall_before = float(prev.get("wall_seconds", 0.0))
     ck = None if force else load_checkpoint(ckp)
     if ck is not None:
         state, meta = split_meta(ck)
-        if meta.get("fingerprint") != fp_any:
+        if not same_physics(meta.get("fingerprint"), fp_any):
             raise RunConflict(_conflict_message(ckp, meta.get("fingerprint"), fp_any))
         try:
             n = frame_count(partial)
@@ -447,7 +525,8 @@ def _compute(cfg, spec, rd: RunDirectory, prev: dict, progress, force: bool, t0:
             truncate_frames(partial, int(meta["frames"]))
             written = int(meta["frames"])
             sim = Simulation.from_checkpoint(state)
-            notes.append(f"resumed from step {sim.state.step}")
+            if not any(n.startswith("extended") for n in notes):
+                notes.append(f"resumed from step {sim.state.step}")
         except Exception as exc:  # noqa: BLE001 - corrupt partial file: start over
             if io_error_cause(exc):
                 raise
@@ -481,12 +560,23 @@ def _compute(cfg, spec, rd: RunDirectory, prev: dict, progress, force: bool, t0:
         fields = _fields_for(cfg, width)
         buffer = []
 
-    rd.begin({"steps": int(steps), "fingerprint": fp_any, "attempts": attempts})
+    n_cells = int(spec.params["N"])
+    start_step = int(sim.state.step)
+    rd.begin({"steps": int(steps), "fingerprint": fp_any, "attempts": attempts,
+              "until": until.as_dict() if until else None, "transient": cfg.run.transient})
     reason = "; ".join(notes)
+    last_check: dict[str, Any] = {}
+
+    def costs(step: int) -> dict[str, Any]:
+        return {"wall_seconds": round(cost["wall_seconds"] + time.time() - t0, 3),
+                "cpu_seconds": round(cost["cpu_seconds"] + time.process_time() - c0, 3),
+                "check_cpu_seconds": round(cost["check_cpu_seconds"], 3),
+                "cell_steps": n_cells * int(step),
+                "cell_steps_computed": int(cost["cell_steps_computed"]) + n_cells * (int(step) - start_step)}
 
     def record(step: int) -> None:
         rd.mark_running(reason=reason, steps_done=int(step), projections=int(sim.state.projections),
-                        wall_seconds=round(wall_before + time.time() - t0, 3))
+                        **costs(step), **({"check": last_check} if last_check else {}))
 
     record(int(sim.state.step))
     last_status = time.time()
@@ -509,8 +599,22 @@ def _compute(cfg, spec, rd: RunDirectory, prev: dict, progress, force: bool, t0:
         _hook("checkpoint")
         record(step)
 
+    def settled(step: int) -> bool:
+        """The ``run.until`` check at a check step (frames up to ``step`` committed)."""
+        nonlocal last_check
+        if until is None or not until.is_check_step(step, steps) or buffer:
+            return False
+        c = time.process_time()
+        verdict = _assess(partial, cfg)
+        cost["check_cpu_seconds"] += time.process_time() - c
+        last_check = {"step": int(step), "settled": verdict.settled, "unmet": list(verdict.unmet),
+                      **{k: (None if not np.isfinite(v) else round(float(v), 6)) for k, v in verdict.values.items()}}
+        record(step)
+        return verdict.settled
+
+    stop_reason = STOP_SETTLED if settled(int(sim.state.step)) else STOP_STEPS
     pace = _Pace(min(se, 64))
-    while sim.state.step < steps:
+    while stop_reason != STOP_SETTLED and sim.state.step < steps:
         target = min(steps, (int(sim.state.step) // se + 1) * se)
         while sim.state.step < target:
             n = min(target - int(sim.state.step), pace.n)
@@ -537,6 +641,8 @@ def _compute(cfg, spec, rd: RunDirectory, prev: dict, progress, force: bool, t0:
         if step % ce == 0 or step >= steps:
             commit()
             checkpoint(step)
+            if settled(step):
+                stop_reason = STOP_SETTLED
         elif buf_bytes > SPILL_BYTES:
             commit()
         if progress is not None:
@@ -546,7 +652,7 @@ def _compute(cfg, spec, rd: RunDirectory, prev: dict, progress, force: bool, t0:
             record(step)
             last_status = time.time()
         why = stop()
-        if why and step < steps:
+        if why and step < steps and stop_reason != STOP_SETTLED:
             if buffer:
                 commit()
             checkpoint(step)
@@ -554,8 +660,13 @@ def _compute(cfg, spec, rd: RunDirectory, prev: dict, progress, force: bool, t0:
     if buffer:  # only when resuming at the very end with frames pending (not expected)
         commit()
 
+    done = int(sim.state.step)
     projections = int(sim.state.projections)
-    set_attrs(partial, schema.PARAMETERS, {"complete": 1, "finished": _now(), "projections_final": projections})
+    set_attrs(partial, schema.PARAMETERS, {
+        "complete": 1, "finished": _now(), "projections_final": projections, "stop_reason": stop_reason,
+        "steps_done": done, "steps": steps, "checkpoint_every": ce, "transient": cfg.run.transient,
+        "until_json": _until_meta(cfg), "fingerprint": fp_any,
+        "config_json": json.dumps(cfg.to_dict(), sort_keys=True)})
     packed = rd.path / f".{schema.TRAJECTORY}.repack.tmp"
     ensure_free_space(rd.path, partial.stat().st_size + SPACE_MARGIN, "repacking the finished trajectory")
     repack(partial, packed)
@@ -563,9 +674,20 @@ def _compute(cfg, spec, rd: RunDirectory, prev: dict, progress, force: bool, t0:
     partial.unlink()
     fsync_dir(rd.path)
     _hook("finalize")
-    rd.mark_done(reason=reason, steps_done=steps, projections=projections,
-                 wall_seconds=round(wall_before + time.time() - t0, 3))
-    return RunOutcome(spec.index, spec.run_id, "done", reason, steps, time.time() - t0)
+    rd.mark_done(reason=reason, steps_done=done, projections=projections, stop_reason=stop_reason,
+                 **costs(done), **({"check": last_check} if last_check else {}))
+    return RunOutcome(spec.index, spec.run_id, "done", reason, done, time.time() - t0)
+
+
+def _assess(partial: Path, cfg: SweepConfig):
+    """Verdict of the ``run.until`` check on the frames of ``partial``.  freud runs on one
+    thread: its parallel reductions could differ in the last bits between thread counts,
+    and the verdict must not depend on the machine a resumed run lands on."""
+    from fcsweep.analysis.settle import assess_trajectory
+
+    until = cfg.run.until
+    return assess_trajectory(partial, transient=cfg.run.transient, confidence=until.confidence,
+                             rel_error=dict(until.rel_error), threads=1)
 
 
 def _version() -> str:

@@ -11,6 +11,7 @@ from fcsweep.config import RunSpec, SweepConfig
 from fcsweep.io import schema
 from fcsweep.io.rundir import free_bytes
 from fcsweep.io.status import read_status
+from fcsweep.sweep.length import extension_of
 from fcsweep.sweep.runner import SPACE_MARGIN, trajectory_bytes
 
 __all__ = ["check_space", "check_output_dir"]
@@ -41,7 +42,7 @@ def check_space(cfg: SweepConfig, specs: Sequence[RunSpec]) -> str | None:
     else ``None``.  Also checks :func:`check_output_dir`.
     """
     check_output_dir(cfg.output)
-    todo = [s for s in specs if (read_status(cfg.run_dir(s.run_id)) or {}).get("status") != schema.DONE]
+    todo = [s for s in specs if _to_write(cfg, s)]
     if not todo:
         return None
     sizes = [trajectory_bytes(cfg, s) for s in todo]
@@ -57,6 +58,13 @@ def check_space(cfg: SweepConfig, specs: Sequence[RunSpec]) -> str | None:
                 f"{_mib(free)} are free in {cfg.output}; runs that do not fit will fail with "
                 "'no space left on device' and resume once space is freed")
     return None
+
+
+def _to_write(cfg: SweepConfig, spec: RunSpec) -> bool:
+    """Whether the run will write a trajectory: not done, or done and to be extended (its
+    trajectory is then rewritten in full)."""
+    st = read_status(cfg.run_dir(spec.run_id)) or {}
+    return st.get("status") != schema.DONE or extension_of(cfg.run, st) is not None
 
 
 def _mib(n: int) -> str:

@@ -17,8 +17,10 @@ from typing import Any
 from fcsweep.config import SweepConfig
 from fcsweep.io import schema
 from fcsweep.io.rundir import RunDirectory
+from fcsweep.sweep.length import extension_of, frames_done
 
-__all__ = ["collect_status", "format_status", "summary_line", "analysis_state", "settings_change", "advice", "STATES"]
+__all__ = ["collect_status", "format_status", "summary_line", "cost_line", "cost_totals", "analysis_state",
+           "settings_change", "advice", "STATES"]
 
 #: Displayed states; ``interrupted`` is a run stopped by a signal or a ``running`` status
 #: whose lock is gone or stale (the next ``fcsweep simulate`` resumes it from its
@@ -30,7 +32,9 @@ STATES = ("done", "running", "interrupted", "failed", "corrupt", "pending")
 def collect_status(cfg: SweepConfig, analysis_settings: dict | None = None, *,
                    verify: bool = False) -> list[dict[str, Any]]:
     """One dict per run: index, run_id, label, state, steps_done, steps, projections,
-    wall_seconds, reason, host, analysis, outdated.
+    wall_seconds, reason, host, analysis, outdated, stop_reason, extend (why a done run
+    will be extended by the next ``simulate``, else ``None``), check (the last
+    ``run.until`` verdict) and the cost keys of :data:`fcsweep.io.schema.COST_KEYS`.
 
     ``analysis_settings``: the settings ``fcsweep analyze`` would use now (the caller
     knows them; this layer does not import the analysis); an analysis.h5 made with
@@ -43,13 +47,15 @@ def collect_status(cfg: SweepConfig, analysis_settings: dict | None = None, *,
     for spec in cfg.runs():
         rd = RunDirectory(cfg.run_dir(spec.run_id), spec.run_id, spec.index, spec.params)
         state = rd.state()
+        st = rd.status()
         if verify and state == schema.DONE:
-            problem = rd.verify(cfg.run.n_frames)
+            problem = rd.verify(frames_done(cfg.run, st))
             if problem is not None:
                 rd.mark_corrupt(problem)
                 state = schema.CORRUPT
         st = rd.status()
         lock = rd.live_lock()
+        extend = extension_of(cfg.run, st) if state == schema.DONE else None
         rows.append(
             {
                 "index": spec.index,
@@ -57,7 +63,7 @@ def collect_status(cfg: SweepConfig, analysis_settings: dict | None = None, *,
                 "label": spec.label(),
                 "state": state,
                 "steps_done": int(st.get("steps_done", 0)),
-                "steps": int(st.get("steps", cfg.run.steps)),
+                "steps": cfg.run.steps if extend else int(st.get("steps", cfg.run.steps)),
                 "projections": st.get("projections"),
                 "wall_seconds": st.get("wall_seconds"),
                 "reason": st.get("reason", ""),
@@ -66,6 +72,10 @@ def collect_status(cfg: SweepConfig, analysis_settings: dict | None = None, *,
                              if state == schema.DONE else ""),
                 "outdated": (settings_change(st.get("fingerprint"), fingerprint_of(cfg, spec))
                              if state == schema.DONE else ""),
+                "stop_reason": st.get("stop_reason"),
+                "extend": extend,
+                "check": st.get("check"),
+                **{k: st.get(k) for k in schema.COST_KEYS},
             }
         )
     return rows
@@ -107,29 +117,59 @@ def settings_change(have: str | None, want: str) -> str:
 
 
 def summary_line(rows: list[dict[str, Any]]) -> str:
-    """E.g. ``4 runs: 2 done, 1 running, 0 interrupted, 1 failed, 0 pending``."""
+    """E.g. ``4 runs: 2 done, 1 running, 0 interrupted, 1 failed, 0 pending`` (plus how
+    many done runs the next ``simulate`` extends, and how many stopped as settled)."""
     c = Counter(r["state"] for r in rows)
-    return f"{len(rows)} runs: " + ", ".join(f"{c.get(s, 0)} {s}" for s in STATES)
+    line = f"{len(rows)} runs: " + ", ".join(f"{c.get(s, 0)} {s}" for s in STATES)
+    ext = sum(bool(r.get("extend")) for r in rows)
+    settled = sum(r.get("stop_reason") == "settled" and r["state"] == schema.DONE for r in rows)
+    if settled:
+        line += f"; {settled} stopped as settled (run.until)"
+    if ext:
+        line += f"; {ext} done run(s) will be extended by the next simulate"
+    return line
+
+
+def cost_totals(rows: list[dict[str, Any]]) -> dict[str, float]:
+    """Sums of the cost keys over runs (missing values count 0)."""
+    return {k: float(sum(float(r.get(k) or 0.0) for r in rows)) for k in schema.COST_KEYS}
+
+
+def cost_line(rows: list[dict[str, Any]]) -> str:
+    """E.g. ``cost: 3.2e+09 cell-steps in trajectories (3.3e+09 integrated), 12.5 CPU-hours
+    (0.4 in until checks), 6.3 h wall summed over runs``."""
+    t = cost_totals(rows)
+    return (f"cost: {t['cell_steps']:.3g} cell-steps in trajectories ({t['cell_steps_computed']:.3g} integrated), "
+            f"{t['cpu_seconds'] / 3600:.3g} CPU-hours ({t['check_cpu_seconds'] / 3600:.3g} in until checks), "
+            f"{t['wall_seconds'] / 3600:.3g} h wall summed over runs")
 
 
 def format_status(rows: list[dict[str, Any]], *, reasons: bool = True) -> str:
     """Fixed-width table with a progress column and a summary line."""
-    head = (f"{'idx':>4}  {'run_id':12}  {'state':11}  {'progress':>14}  {'proj':>6}  {'wall[s]':>8}  "
-            f"{'analysed':8}  parameters")
+    head = (f"{'idx':>4}  {'run_id':12}  {'state':11}  {'progress':>14}  {'stop':8}  {'proj':>6}  "
+            f"{'wall[s]':>8}  {'cpu[s]':>8}  {'analysed':8}  parameters")
     lines = [head, "-" * len(head)]
     for r in rows:
         pct = 100.0 * r["steps_done"] / max(r["steps"], 1)
         prog = f"{pct:5.1f}% {_short(r['steps_done'])}"
         proj = "" if r["projections"] is None else str(r["projections"])
         wall = "" if r["wall_seconds"] is None else f"{float(r['wall_seconds']):.1f}"
+        cpu = "" if r.get("cpu_seconds") is None else f"{float(r['cpu_seconds']):.1f}"
+        stop = "extend" if r.get("extend") else (r.get("stop_reason") or "") if r["state"] == "done" else ""
         lines.append(
-            f"{r['index']:>4}  {r['run_id']:12}  {r['state']:11}  {prog:>14}  {proj:>6}  {wall:>8}  "
-            f"{r.get('analysis', ''):8}  {r['label']}"
+            f"{r['index']:>4}  {r['run_id']:12}  {r['state']:11}  {prog:>14}  {stop:8}  {proj:>6}  {wall:>8}  "
+            f"{cpu:>8}  {r.get('analysis', ''):8}  {r['label']}"
         )
         if reasons and r["state"] in ("failed", "corrupt", "interrupted") and r["reason"]:
             lines.append(f"{'':6}reason: {r['reason']}")
         if r.get("outdated"):
             lines.append(f"{'':6}computed with other run settings ({r['outdated']})")
+        if reasons and r.get("extend"):
+            lines.append(f"{'':6}will be extended: {r['extend']}")
+        check = r.get("check") or {}
+        if reasons and r["state"] in ("running", "interrupted") and check.get("unmet"):
+            lines.append(f"{'':6}not settled at step {check.get('step')}: {'; '.join(check['unmet'])}")
+    lines.append(cost_line(rows))
     lines.append(summary_line(rows))
     return "\n".join(lines)
 
