@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .step import (P_CONTACT, P_DMAX, P_DT, P_ETA, P_LX, P_LY, P_MUS, P_MUT, P_NOISE, P_R0, P_SKIN, P_SMAX,
-                   P_V0, compute_rates)
+from ..model.integrators import KAPPA_FLOOR
+from .step import (P_CONTACT, P_DMAX, P_DT, P_ETA, P_KFLOOR, P_LX, P_LY, P_MUS, P_MUT, P_NOISE, P_R0,
+                   P_SKIN, P_SMAX, P_V0, compute_rates)
 from .workspace import SKIN, quadrature_code, workspace_for
 
 
@@ -16,13 +17,14 @@ def param_vector(*, box, R0, eta, v0, mu_theta, mu_shape, dt=0.0, noise_amp=0.0,
     ``contact`` is the contact-implicit coefficient
     (:func:`fcsweep.model.integrators.contact_coefficient`; 0 for explicit Euler).
     """
-    prm = np.zeros(13)
+    prm = np.zeros(14)
     Lx, Ly = (1.0, 1.0) if box is None else (float(box[0]), float(box[1]))
     prm[P_LX], prm[P_LY], prm[P_R0] = Lx, Ly, R0
     prm[P_ETA], prm[P_V0], prm[P_MUT], prm[P_MUS] = eta, v0, mu_theta, mu_shape
     prm[P_DT], prm[P_NOISE], prm[P_SMAX], prm[P_DMAX] = dt, noise_amp, smax, dmax
     prm[P_SKIN] = SKIN * R0
     prm[P_CONTACT] = contact
+    prm[P_KFLOOR] = KAPPA_FLOOR
     return prm
 
 

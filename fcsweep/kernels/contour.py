@@ -648,7 +648,7 @@ def _min_image(dx, dy, Lx, Ly):
 @njit(parallel=True, **NJIT)
 def all_rates(pos, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shape, quad,
               cosn, sinn, cphi, sphi, R, dR, px, py, tx, ty, geo, W, tbuf, acc,
-              use_list, nbr, count, pairbuf, dpos, dth, da, db, coef, pbuf):
+              use_list, nbr, count, pairbuf, dpos, dth, da, db, coef, kfloor, pbuf):
     """Deterministic rates of every cell (geometry must be current).
 
     With ``use_list`` the Verlet list ``nbr[i, :count[i]]`` (see :mod:`.verlet`) gives
@@ -702,7 +702,7 @@ def all_rates(pos, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shape, quad
                         pbuf[tid, k] = 0.0
                     pair_arc(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tbuf, tid,
                              pbuf, tid, pairbuf, i * cap + p)
-                    add_scaled_arc_pair(tid, pbuf, acc, i, pairbuf, i * cap + p, coef)
+                    add_scaled_arc_pair(i, j, tid, pbuf, acc, i, pairbuf, i * cap + p, a, b, geo, R0, coef, kfloor)
                 elif arc:
                     pair_arc(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tbuf, tid,
                              acc, i, pairbuf, i * cap + p)
@@ -713,7 +713,7 @@ def all_rates(pos, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shape, quad
                     pair_weights(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad,
                                  W, tbuf, tid, acc, coef)
                     if points:
-                        scale_point_pair(i, W, pbuf, tid, R, coef)
+                        scale_point_pair(i, j, W, pbuf, tid, R, px, py, a, b, geo, R0, coef, kfloor)
         else:
             nimg = 1 if periodic else 0
             for j in range(N):
@@ -733,18 +733,19 @@ def all_rates(pos, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shape, quad
                             pair_weights(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad,
                                          W, tbuf, tid, acc, coef)
                             if points:
-                                scale_point_pair(i, W, pbuf, tid, R, coef)
+                                scale_point_pair(i, j, W, pbuf, tid, R, px, py, a, b, geo, R0, coef, kfloor)
                         elif j != i and coef > 0.0:
                             for k in range(acc.shape[1]):
                                 pbuf[tid, k] = 0.0
+                            # i's share, resolved on the lower index; i's force points away
+                            # from j either way, so the factor is the same from both sides
                             if i < j:
                                 pair_arc_call(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0,
                                               tbuf, tid, pbuf, tid, pairbuf, i)
                             else:
-                                # j's share of a pair resolved on j: its force is minus j's own
                                 pair_arc_call(j, i, -dx, -dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0,
                                               tbuf, tid, pairbuf, i, pbuf, tid)
-                            add_scaled_arc_pair(tid, pbuf, acc, i, pairbuf, -1, coef)
+                            add_scaled_arc_pair(i, j, tid, pbuf, acc, i, pairbuf, -1, a, b, geo, R0, coef, kfloor)
                         elif j != i:
                             # the lower index resolves the pair; the other recomputes it
                             # (pairbuf row i takes the share that is not i's)

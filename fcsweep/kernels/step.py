@@ -24,7 +24,7 @@ TOO_FAST = 2
 LIST_FULL = 3
 
 #: Indices into the float parameter vector of :func:`run_chunk`.
-P_LX, P_LY, P_R0, P_ETA, P_V0, P_MUT, P_MUS, P_DT, P_NOISE, P_SMAX, P_DMAX, P_SKIN, P_CONTACT = range(13)
+P_LX, P_LY, P_R0, P_ETA, P_V0, P_MUT, P_MUS, P_DT, P_NOISE, P_SMAX, P_DMAX, P_SKIN, P_CONTACT, P_KFLOOR = range(14)
 
 
 @njit(parallel=True, **NJIT)
@@ -116,7 +116,7 @@ def compute_rates(pos, theta, a, b, prm, periodic, quad, tables, scratch, cl, nl
             valid[0] = 0
     all_rates(pos, a, b, Lx, Ly, periodic, R0, prm[P_ETA], prm[P_V0], prm[P_MUT], prm[P_MUS], quad,
               cosn, sinn, cphi, sphi, R, dR, px, py, tx, ty, geo, W, tbuf, acc,
-              use_list, nbr, count, pairbuf, dpos, dth, da, db, prm[P_CONTACT], pbuf)
+              use_list, nbr, count, pairbuf, dpos, dth, da, db, prm[P_CONTACT], prm[P_KFLOOR], pbuf)
     return True
 
 
