@@ -173,7 +173,7 @@ def qualifies(obs_row, err, err_target):
 
 
 def tables(res, cfg):
-    L = [f"# Integrators: cost per time unit at fixed accuracy (benchmarks/integrators.py"
+    L = ["# Integrators: cost per time unit at fixed accuracy (benchmarks/integrators.py"
          + (" --quick" if cfg["quick"] else "") + ")", ""]
     L.append("## Contact persistence (fraction of overlapping pairs still overlapping at the next step)")
     L.append(f"{'state':<16} {'quadrature':<8} {'integrator':<17} {'dt':>6} {'persistence':>11} {'contacts':>8}")

@@ -697,15 +697,19 @@ def all_rates(pos, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shape, quad
                 cut = rbi + geo[j, 1]
                 if dx * dx + dy * dy >= cut * cut:
                     continue
-                if arc and coef > 0.0:
-                    for k in range(acc.shape[1]):
-                        pbuf[tid, k] = 0.0
+                if arc:
+                    # i's share to acc[i], or first to pbuf[tid] to be scaled (one inlined
+                    # copy of the rule: each costs about a minute of compilation)
+                    dst = pbuf if coef > 0.0 else acc
+                    row = tid if coef > 0.0 else i
+                    if coef > 0.0:
+                        for k in range(acc.shape[1]):
+                            pbuf[tid, k] = 0.0
                     pair_arc(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tbuf, tid,
-                             pbuf, tid, pairbuf, i * cap + p)
-                    add_scaled_arc_pair(i, j, tid, pbuf, acc, i, pairbuf, i * cap + p, a, b, geo, R0, coef, kfloor)
-                elif arc:
-                    pair_arc(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tbuf, tid,
-                             acc, i, pairbuf, i * cap + p)
+                             dst, row, pairbuf, i * cap + p)
+                    if coef > 0.0:
+                        add_scaled_arc_pair(i, j, tid, pbuf, acc, i, pairbuf, i * cap + p, a, b, geo, R0, coef,
+                                            kfloor)
                 else:
                     if points:
                         for k in range(W.shape[1]):
@@ -734,27 +738,26 @@ def all_rates(pos, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shape, quad
                                          W, tbuf, tid, acc, coef)
                             if points:
                                 scale_point_pair(i, j, W, pbuf, tid, R, px, py, a, b, geo, R0, coef, kfloor)
-                        elif j != i and coef > 0.0:
-                            for k in range(acc.shape[1]):
-                                pbuf[tid, k] = 0.0
-                            # i's share, resolved on the lower index; i's force points away
-                            # from j either way, so the factor is the same from both sides
-                            if i < j:
-                                pair_arc_call(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0,
-                                              tbuf, tid, pbuf, tid, pairbuf, i)
-                            else:
-                                pair_arc_call(j, i, -dx, -dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0,
-                                              tbuf, tid, pairbuf, i, pbuf, tid)
-                            add_scaled_arc_pair(i, j, tid, pbuf, acc, i, pairbuf, -1, a, b, geo, R0, coef, kfloor)
                         elif j != i:
                             # the lower index resolves the pair; the other recomputes it
-                            # (pairbuf row i takes the share that is not i's)
+                            # (pairbuf row i takes the share that is not i's).  i's share goes
+                            # to acc[i], or first to pbuf[tid] to be scaled (contact-implicit:
+                            # i's force points away from j from either side, so the factor
+                            # is the same for both cells)
+                            dst = pbuf if coef > 0.0 else acc
+                            row = tid if coef > 0.0 else i
+                            if coef > 0.0:
+                                for k in range(acc.shape[1]):
+                                    pbuf[tid, k] = 0.0
                             if i < j:
                                 pair_arc_call(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0,
-                                              tbuf, tid, acc, i, pairbuf, i)
+                                              tbuf, tid, dst, row, pairbuf, i)
                             else:
                                 pair_arc_call(j, i, -dx, -dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0,
-                                              tbuf, tid, pairbuf, i, acc, i)
+                                              tbuf, tid, pairbuf, i, dst, row)
+                            if coef > 0.0:
+                                add_scaled_arc_pair(i, j, tid, pbuf, acc, i, pairbuf, -1, a, b, geo, R0, coef,
+                                                    kfloor)
                         elif sx > 0 or (sx == 0 and sy > 0):
                             # one of the two instances of a pair with its own image: both shares
                             pair_arc_call(i, i, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tbuf,

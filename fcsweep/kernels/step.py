@@ -1,5 +1,9 @@
 """Euler-Maruyama integration of the contour model (numba).
 
+The deterministic rates are those of explicit Euler, or, with ``prm[P_CONTACT] > 0``, the
+effective rates of the contact-implicit step (each pair's integrals scaled by its
+implicit factor, :mod:`fcsweep.kernels.contacts`); the update and the noise are the same.
+
 The noise for all steps of a chunk is drawn by the caller from a numpy Generator and
 passed in, so a run is determined by its parameters and seed, and a chunked or resumed
 run reproduces an uninterrupted one bit for bit.
