@@ -19,8 +19,9 @@ Each grid point x replicate is a run.  Its id is the first 12 hex digits of the 
 the canonical JSON ``{"params": {...}, "replicate": r}``, where ``params`` holds every model
 parameter (grid and fixed values, defaults filled in) with floats written as
 ``repr(float(x))`` and the integer parameters (N, modes, contour_points) as ints, keys
-sorted.  So ``eta: 1`` and ``eta: 1.0`` give the same run.  The run's seed is
-``SeedSequence([seed, int(run_id, 16)]).generate_state(1, uint64)[0] >> 1`` (a
+sorted (``integrator`` only when it is not the default ``euler``, so ids from before
+the key existed are unchanged).  So ``eta: 1`` and ``eta: 1.0`` give the same run.  The
+run's seed is ``SeedSequence([seed, int(run_id, 16)]).generate_state(1, uint64)[0] >> 1`` (a
 deterministic 63-bit integer), so every run has independent noise and the same run always
 gets the same noise.
 
@@ -51,6 +52,7 @@ from typing import Any, Mapping
 import numpy as np
 import yaml
 
+from fcsweep.model.integrators import DEFAULT_INTEGRATOR, INTEGRATORS
 from fcsweep.model.rates import QUADRATURES
 from fcsweep.model.shape import contour_points_problem, dt_problem
 
@@ -91,9 +93,11 @@ MODEL_DEFAULTS: dict[str, Any] = {
     "R0": 1.0,
     "mu_theta": 1.0,
     "mu_shape": 1.0,
+    "integrator": DEFAULT_INTEGRATOR,
 }
 INT_PARAMS = ("N", "modes", "contour_points")
-STR_PARAMS = ("quadrature",)
+#: String parameters and their allowed values.
+STR_PARAMS = {"quadrature": QUADRATURES, "integrator": INTEGRATORS}
 
 #: Per-cell time series that ``output.fields`` may select (position and image always stored).
 FIELDS = ("position", "image", "theta", "shape_a", "shape_b")
@@ -393,8 +397,8 @@ def _check_param(name: str, value, where: str) -> Any:
     """Validate and canonicalise one model parameter value."""
     key = f"{where}.{name}"
     if name in STR_PARAMS:
-        if not isinstance(value, str) or value not in QUADRATURES:
-            raise ConfigError(f"{key} = {value!r} is not allowed; choose one of {list(QUADRATURES)}")
+        if not isinstance(value, str) or value not in STR_PARAMS[name]:
+            raise ConfigError(f"{key} = {value!r} is not allowed; choose one of {list(STR_PARAMS[name])}")
         return value
     if name == "N":
         n = _int(value, key, minimum=4)
@@ -677,9 +681,11 @@ def _canon_value(name: str, value) -> Any:
 def run_id_of(params: Mapping[str, Any], replicate: int) -> str:
     """Stable 12-hex-digit id of a run from its model parameters and replicate.
 
-    ``seed`` (if present in ``params``) is ignored: the seed derives from the id.
+    ``seed`` (if present in ``params``) is ignored: the seed derives from the id, and so
+    is ``integrator`` when it is the default (ids from before the key existed hold).
     """
-    canon = {k: _canon_value(k, v) for k, v in params.items() if k != "seed"}
+    canon = {k: _canon_value(k, v) for k, v in params.items()
+             if k != "seed" and not (k == "integrator" and v == DEFAULT_INTEGRATOR)}
     blob = json.dumps({"params": canon, "replicate": int(replicate)}, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(blob.encode()).hexdigest()[:12]
 

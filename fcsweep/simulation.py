@@ -25,8 +25,11 @@ from . import __version__
 from .kernels.step import LIST_FULL, NONFINITE, OK, P_DMAX, run_chunk
 from .kernels.api import param_vector
 from .kernels.workspace import quadrature_code, workspace_for
+from .model.integrators import DEFAULT_INTEGRATOR, INTEGRATORS, check_integrator, contact_coefficient
 from .model.lattice import hexagonal_lattice, lattice_box
 from .model.shape import ADMISSIBLE_BOUND, PROJECTION_MARGIN, contour_points_problem, dt_problem
+
+__all__ = ["INTEGRATORS", "SimParams", "Simulation", "SimulationError", "State"]
 
 #: Steps whose noise is drawn at once; any value gives the same trajectory.
 CHUNK = 256
@@ -63,6 +66,7 @@ class SimParams:
     R0: float = 1.0
     mu_theta: float = 1.0
     mu_shape: float = 1.0
+    integrator: str = DEFAULT_INTEGRATOR
 
     def __post_init__(self):
         checks = [
@@ -81,6 +85,7 @@ class SimParams:
             if not ok:
                 raise ValueError(f"{name} must be {allowed}; got {getattr(self, name)!r}")
         quadrature_code(self.quadrature)
+        check_integrator(self.integrator)
         for name in ("eta", "v0", "Dr", "dt", "R0", "mu_theta", "mu_shape"):
             if not math.isfinite(getattr(self, name)):
                 raise ValueError(f"{name} must be finite; got {getattr(self, name)!r}")
@@ -130,7 +135,11 @@ class State:
 
 
 class Simulation:
-    """Euler-Maruyama integration of N cells; noise from a PCG64 Generator.
+    """Integration of N cells with Euler-Maruyama noise from a PCG64 Generator.
+
+    ``params.integrator`` picks the deterministic step (:data:`INTEGRATORS`): ``"euler"``
+    (the paper's explicit step, default) or ``"contact-implicit"`` (each contact's normal
+    relaxation implicit, so contacts do not chatter; :mod:`fcsweep.model.integrators`).
 
     Use :meth:`from_lattice` for docs/model.md's initial state, :meth:`advance` to integrate,
     and :meth:`to_checkpoint` / :meth:`from_checkpoint` (or :meth:`save` / :meth:`load`)
@@ -151,20 +160,23 @@ class Simulation:
             box=params.box, R0=params.R0, eta=params.eta, v0=params.v0, mu_theta=params.mu_theta,
             mu_shape=params.mu_shape, dt=params.dt, noise_amp=math.sqrt(2.0 * params.Dr * params.dt),
             smax=PROJECTION_MARGIN * ADMISSIBLE_BOUND, dmax=spacing,
+            contact=contact_coefficient(params.integrator, params.dt, params.modes, params.R0, params.mu_shape),
         )
 
     # ------------------------------------------------------------------ construction
     @classmethod
     def from_lattice(cls, N, *, eta, v0, Dr=0.01, seed, density=0.95, dt=5e-3, contour_points=40, modes=6,
-                     quadrature="arc", R0=1.0, mu_theta=1.0, mu_shape=1.0) -> "Simulation":
+                     quadrature="arc", R0=1.0, mu_theta=1.0, mu_shape=1.0,
+                     integrator=DEFAULT_INTEGRATOR) -> "Simulation":
         """Cells on the n x n hexagonal lattice, circular, with uniform random polarity.
 
-        Parameters are those of :class:`SimParams`; N must be n*n with n even.
+        Parameters are those of :class:`SimParams`; N must be n*n with n even;
+        ``integrator`` is one of :data:`INTEGRATORS`.
         """
         p = SimParams(N=int(N), eta=float(eta), v0=float(v0), seed=int(seed), Dr=float(Dr),
                       density=float(density), dt=float(dt), contour_points=int(contour_points),
                       modes=int(modes), quadrature=str(quadrature), R0=float(R0),
-                      mu_theta=float(mu_theta), mu_shape=float(mu_shape))
+                      mu_theta=float(mu_theta), mu_shape=float(mu_shape), integrator=str(integrator))
         pos, box = hexagonal_lattice(p.N, p.density, p.R0)
         rng = np.random.Generator(np.random.PCG64(p.seed))
         theta = rng.uniform(0.0, 2.0 * np.pi, p.N)
@@ -180,7 +192,7 @@ class Simulation:
         return self.state.step * self.params.dt
 
     def advance(self, steps: int) -> None:
-        """Integrate ``steps`` Euler-Maruyama steps.
+        """Integrate ``steps`` steps of ``params.integrator``.
 
         Raises
         ------
@@ -281,6 +293,7 @@ class Simulation:
 
         stored = json.loads(str(scalar(ck["params_json"])))
         stored.setdefault("quadrature", "binary")  # the only rule before the option existed
+        stored.setdefault("integrator", DEFAULT_INTEGRATOR)  # the only scheme before the option existed
         params = SimParams(**stored)
         rng = np.random.Generator(np.random.PCG64())
         rng.bit_generator.state = json.loads(str(scalar(ck["rng_state_json"])))

@@ -161,6 +161,7 @@ PARAMETER_META = {
     "modes": ("highest Fourier mode M", "1"),
     "contour_points": ("contour quadrature points K", "1"),
     "quadrature": ("contact quadrature rule", ""),
+    "integrator": ("time integrator of the contact forces", ""),
     "R0": ("radius of the circle of equal area (length unit)", "1"),
     "mu_theta": ("mobility of the polarity angle", "1"),
     "mu_shape": ("mobility of the shape modes", "1"),

@@ -4,19 +4,27 @@ from __future__ import annotations
 
 import numpy as np
 
-from .step import (P_DMAX, P_DT, P_ETA, P_LX, P_LY, P_MUS, P_MUT, P_NOISE, P_R0, P_SKIN, P_SMAX, P_V0,
-                   compute_rates)
+from ..model.integrators import KAPPA_FLOOR
+from .step import (P_CONTACT, P_DMAX, P_DT, P_ETA, P_KFLOOR, P_LX, P_LY, P_MUS, P_MUT, P_NOISE, P_R0,
+                   P_SKIN, P_SMAX, P_V0, compute_rates)
 from .workspace import SKIN, quadrature_code, workspace_for
 
 
-def param_vector(*, box, R0, eta, v0, mu_theta, mu_shape, dt=0.0, noise_amp=0.0, smax=np.inf, dmax=np.inf):
-    """Float parameter vector in the layout :func:`fcsweep.kernels.step.run_chunk` reads."""
-    prm = np.zeros(12)
+def param_vector(*, box, R0, eta, v0, mu_theta, mu_shape, dt=0.0, noise_amp=0.0, smax=np.inf, dmax=np.inf,
+                 contact=0.0):
+    """Float parameter vector in the layout :func:`fcsweep.kernels.step.run_chunk` reads.
+
+    ``contact`` is the contact-implicit coefficient
+    (:func:`fcsweep.model.integrators.contact_coefficient`; 0 for explicit Euler).
+    """
+    prm = np.zeros(14)
     Lx, Ly = (1.0, 1.0) if box is None else (float(box[0]), float(box[1]))
     prm[P_LX], prm[P_LY], prm[P_R0] = Lx, Ly, R0
     prm[P_ETA], prm[P_V0], prm[P_MUT], prm[P_MUS] = eta, v0, mu_theta, mu_shape
     prm[P_DT], prm[P_NOISE], prm[P_SMAX], prm[P_DMAX] = dt, noise_amp, smax, dmax
     prm[P_SKIN] = SKIN * R0
+    prm[P_CONTACT] = contact
+    prm[P_KFLOOR] = KAPPA_FLOOR
     return prm
 
 
@@ -31,9 +39,13 @@ def wrap_positions(pos, box):
 
 
 def kernel_rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, contour_points=40, quadrature="arc",
-                 mu_theta=1.0, mu_shape=1.0, workspace=None):
+                 mu_theta=1.0, mu_shape=1.0, workspace=None, contact=0.0):
     """Deterministic rates computed by the numba kernels; same contract as
-    :func:`fcsweep.model.rates.rates`."""
+    :func:`fcsweep.model.rates.rates`.
+
+    ``contact > 0`` gives the effective rates of one contact-implicit step instead
+    (each pair's integrals scaled by its factor; see :mod:`fcsweep.model.integrators`).
+    """
     pos = np.ascontiguousarray(pos, dtype=float).reshape(-1, 2)
     N = len(pos)
     theta = np.ascontiguousarray(theta, dtype=float).reshape(N)
@@ -42,7 +54,7 @@ def kernel_rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, contour_points=
     ws = workspace or workspace_for(N, contour_points, a.shape[1], box, R0, quadrature)
     if quadrature == "arc" and a.shape[1] > 0 and not ws.pair_buffer:
         raise ValueError("the arc quadrature needs a Workspace with pair_buffer=True")
-    prm = param_vector(box=box, R0=R0, eta=eta, v0=v0, mu_theta=mu_theta, mu_shape=mu_shape)
+    prm = param_vector(box=box, R0=R0, eta=eta, v0=v0, mu_theta=mu_theta, mu_shape=mu_shape, contact=contact)
     pos = wrap_positions(pos, box)
     ws.nl[4][0] = 0  # positions are new: rebuild the neighbour list
     while not compute_rates(pos, theta, a, b, prm, box is not None, quadrature_code(quadrature),

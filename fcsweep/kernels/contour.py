@@ -14,6 +14,7 @@ Array conventions (N cells, K contour points, M1 = M - 1 shape modes):
 - ``geo``         float64[N, 5]   a0, bounding radius (rigorous), cos(theta),
   sin(theta), largest sampled radius
 - ``tbuf``        float64[threads, 8, 4K + 8]  per-thread window scratch (arc rule: Gauss nodes)
+- ``pbuf``        float64[threads, >= max(2K+LANES, 4+2M1)]  one pair's share (contact-implicit)
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ import numpy as np
 from numba import get_thread_id, njit, prange
 
 from .arcs import arc_pair, may_touch
+from .contacts import add_scaled_arc_pair, contact_factor, scale_point_pair
 from .fourier import fourier6, fourier_series, modes6
 from .options import NJIT
 
@@ -331,12 +333,15 @@ def window_gaps_generic(i, j, dx, dy, k0, cnt, slopes, a, b, geo, R, dR, px, py,
 
 
 @njit(inline="always", **NJIT)
-def pair_disc(i, dx, dy, R0, acc):
+def pair_disc(i, dx, dy, R0, acc, coef):
     """Rigid discs: the exact lens-overlap force, the chord 2 sqrt(R0^2 - D^2/4) along
-    the line of centres, pushing i away from j."""
+    the line of centres, pushing i away from j (times the contact-implicit factor when
+    ``coef > 0``)."""
     D = math.sqrt(dx * dx + dy * dy)
     if D < 2.0 * R0 and D > 0.0:
         chord = 2.0 * math.sqrt(R0 * R0 - 0.25 * D * D)
+        if coef > 0.0:
+            chord *= contact_factor(chord, coef)
         acc[i, 0] -= chord * dx / D
         acc[i, 1] -= chord * dy / D
 
@@ -433,17 +438,18 @@ def pair_arc_call(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0
 
 
 @njit(inline="always", **NJIT)
-def pair_weights(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad, W, tb, tid, acc):
+def pair_weights(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad, W, tb, tid, acc, coef):
     """Add the overlap of cell j onto cell i with a point-weight rule, or rigid discs.
 
     ``(dx, dy)`` is r_j - r_i for the image of j being considered.  Binary and linear
     rules add per-point weights to ``W[i]``; rigid discs add the lens force to
-    ``acc[i]``.  ``tb[tid]`` is this thread's scratch.  One small function per rule,
+    ``acc[i]`` (with the contact-implicit factor when ``coef > 0``; the point rules
+    are scaled by the caller).  ``tb[tid]`` is this thread's scratch.  One small function per rule,
     so that each compiles (and vectorises) on its own.  (The arc rule treats each pair
     once, for both cells: :func:`pair_arc`.)
     """
     if a.shape[1] == 0:
-        pair_disc(i, dx, dy, R0, acc)
+        pair_disc(i, dx, dy, R0, acc, coef)
     elif quad == QUAD_BINARY:
         pair_binary(i, j, dx, dy, a, b, geo, px, py, R0, W)
     else:
@@ -642,7 +648,7 @@ def _min_image(dx, dy, Lx, Ly):
 @njit(parallel=True, **NJIT)
 def all_rates(pos, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shape, quad,
               cosn, sinn, cphi, sphi, R, dR, px, py, tx, ty, geo, W, tbuf, acc,
-              use_list, nbr, count, pairbuf, dpos, dth, da, db):
+              use_list, nbr, count, pairbuf, dpos, dth, da, db, coef, kfloor, pbuf):
     """Deterministic rates of every cell (geometry must be current).
 
     With ``use_list`` the Verlet list ``nbr[i, :count[i]]`` (see :mod:`.verlet`) gives
@@ -656,9 +662,17 @@ def all_rates(pos, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shape, quad
     With the list, cell i keeps j's share in ``pairbuf[i * cap + p]`` (``nbr[i, p] = j``)
     and j collects it in a second pass; without it, the higher-index cell recomputes
     the pair (small boxes only).
+
+    With ``coef > 0`` (the ``contact-implicit`` integrator, :mod:`.contacts`) every
+    pair's integrals are scaled by the pair's implicit factor before they are added: a
+    point rule's weights via a copy of ``W[i]`` in ``pbuf[tid]``, the arc rule's by
+    resolving the pair into ``pbuf[tid]``.  (A cell overlapping its own periodic image,
+    in boxes of a few cells, is left explicit.)  The rates are then the effective rates
+    of one step of length dt, not the physical ones.
     """
     N = pos.shape[0]
     arc = quad == QUAD_ARC and a.shape[1] > 0
+    points = coef > 0.0 and a.shape[1] > 0 and not arc
     cap = nbr.shape[1]
     for ii in prange(N):
         i = np.int64(ii)  # prange indices are unsigned: one type for i and j, one compilation
@@ -684,11 +698,26 @@ def all_rates(pos, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shape, quad
                 if dx * dx + dy * dy >= cut * cut:
                     continue
                 if arc:
+                    # i's share to acc[i], or first to pbuf[tid] to be scaled (one inlined
+                    # copy of the rule: each costs about a minute of compilation)
+                    dst = pbuf if coef > 0.0 else acc
+                    row = tid if coef > 0.0 else i
+                    if coef > 0.0:
+                        for k in range(acc.shape[1]):
+                            pbuf[tid, k] = 0.0
                     pair_arc(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tbuf, tid,
-                             acc, i, pairbuf, i * cap + p)
+                             dst, row, pairbuf, i * cap + p)
+                    if coef > 0.0:
+                        add_scaled_arc_pair(i, j, tid, pbuf, acc, i, pairbuf, i * cap + p, a, b, geo, R0, coef,
+                                            kfloor)
                 else:
+                    if points:
+                        for k in range(W.shape[1]):
+                            pbuf[tid, k] = W[i, k]
                     pair_weights(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad,
-                                 W, tbuf, tid, acc)
+                                 W, tbuf, tid, acc, coef)
+                    if points:
+                        scale_point_pair(i, j, W, pbuf, tid, R, px, py, a, b, geo, R0, coef, kfloor)
         else:
             nimg = 1 if periodic else 0
             for j in range(N):
@@ -702,17 +731,33 @@ def all_rates(pos, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shape, quad
                         if dx * dx + dy * dy >= cut * cut:
                             continue
                         if not arc:
+                            if points:
+                                for k in range(W.shape[1]):
+                                    pbuf[tid, k] = W[i, k]
                             pair_weights(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad,
-                                         W, tbuf, tid, acc)
+                                         W, tbuf, tid, acc, coef)
+                            if points:
+                                scale_point_pair(i, j, W, pbuf, tid, R, px, py, a, b, geo, R0, coef, kfloor)
                         elif j != i:
                             # the lower index resolves the pair; the other recomputes it
-                            # (pairbuf row i takes the share that is not i's)
+                            # (pairbuf row i takes the share that is not i's).  i's share goes
+                            # to acc[i], or first to pbuf[tid] to be scaled (contact-implicit:
+                            # i's force points away from j from either side, so the factor
+                            # is the same for both cells)
+                            dst = pbuf if coef > 0.0 else acc
+                            row = tid if coef > 0.0 else i
+                            if coef > 0.0:
+                                for k in range(acc.shape[1]):
+                                    pbuf[tid, k] = 0.0
                             if i < j:
                                 pair_arc_call(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0,
-                                              tbuf, tid, acc, i, pairbuf, i)
+                                              tbuf, tid, dst, row, pairbuf, i)
                             else:
                                 pair_arc_call(j, i, -dx, -dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0,
-                                              tbuf, tid, pairbuf, i, acc, i)
+                                              tbuf, tid, pairbuf, i, dst, row)
+                            if coef > 0.0:
+                                add_scaled_arc_pair(i, j, tid, pbuf, acc, i, pairbuf, -1, a, b, geo, R0, coef,
+                                                    kfloor)
                         elif sx > 0 or (sx == 0 and sy > 0):
                             # one of the two instances of a pair with its own image: both shares
                             pair_arc_call(i, i, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tbuf,

@@ -1,5 +1,9 @@
 """Euler-Maruyama integration of the contour model (numba).
 
+The deterministic rates are those of explicit Euler, or, with ``prm[P_CONTACT] > 0``, the
+effective rates of the contact-implicit step (each pair's integrals scaled by its
+implicit factor, :mod:`fcsweep.kernels.contacts`); the update and the noise are the same.
+
 The noise for all steps of a chunk is drawn by the caller from a numpy Generator and
 passed in, so a run is determined by its parameters and seed, and a chunked or resumed
 run reproduces an uninterrupted one bit for bit.
@@ -24,7 +28,7 @@ TOO_FAST = 2
 LIST_FULL = 3
 
 #: Indices into the float parameter vector of :func:`run_chunk`.
-P_LX, P_LY, P_R0, P_ETA, P_V0, P_MUT, P_MUS, P_DT, P_NOISE, P_SMAX, P_DMAX, P_SKIN = range(12)
+P_LX, P_LY, P_R0, P_ETA, P_V0, P_MUT, P_MUS, P_DT, P_NOISE, P_SMAX, P_DMAX, P_SKIN, P_CONTACT, P_KFLOOR = range(14)
 
 
 @njit(parallel=True, **NJIT)
@@ -88,7 +92,7 @@ def compute_rates(pos, theta, a, b, prm, periodic, quad, tables, scratch, cl, nl
     again; nothing has been changed but scratch).
     """
     cosn, sinn, cphi, sphi = tables
-    R, dR, px, py, tx, ty, geo, W, tbuf, acc = scratch
+    R, dR, px, py, tx, ty, geo, W, tbuf, acc, pbuf = scratch
     cell_of, cell_start, cell_members = cl
     nbr, count, ref_pos, ref_rb, valid, pairbuf = nl
     dpos, dth, da, db = out
@@ -116,7 +120,7 @@ def compute_rates(pos, theta, a, b, prm, periodic, quad, tables, scratch, cl, nl
             valid[0] = 0
     all_rates(pos, a, b, Lx, Ly, periodic, R0, prm[P_ETA], prm[P_V0], prm[P_MUT], prm[P_MUS], quad,
               cosn, sinn, cphi, sphi, R, dR, px, py, tx, ty, geo, W, tbuf, acc,
-              use_list, nbr, count, pairbuf, dpos, dth, da, db)
+              use_list, nbr, count, pairbuf, dpos, dth, da, db, prm[P_CONTACT], prm[P_KFLOOR], pbuf)
     return True
 
 

@@ -39,6 +39,8 @@ class Workspace:
             np.zeros((N, 2 * K + LANES)),  # W: point weights, periodic like px
             np.zeros((numba.config.NUMBA_NUM_THREADS, 8, 4 * K + 8)),  # tbuf: window scratch, Gauss nodes
             np.zeros((N, 4 + 2 * self.M1)),  # acc: arc integrals
+            # pbuf: one pair's share (contact-implicit integrator), per thread
+            np.zeros((numba.config.NUMBA_NUM_THREADS, max(2 * K + LANES, 4 + 2 * self.M1))),
         )
         # cells of side >= 2 R0 (a0 + s) >= 2 R0 a0 >= 2 R0 / sqrt(3) ... bounded count
         if box is None:
