@@ -248,8 +248,18 @@ def bench(config, compare, steps, warm, threads, workers, as_json):
 @cli.command()
 @click.argument("config", type=click.Path(dir_okay=False))
 def validate(config):
-    """Check a config file; print the number of runs or the first problem (exit 2)."""
+    """Check a config file, its output directory and disk space; print the number of runs
+    or the first problem (one line, exit 2)."""
+    from fcsweep.sweep.space import check_space
+
     cfg = _load(config, to_run=True)
+    try:  # the output can be created and the largest trajectory fits on its disk
+        note = check_space(cfg, cfg.runs())
+    except OSError as exc:
+        click.echo(f"fcsweep: invalid config: {config}: output: {exc.strerror or exc}", err=True)
+        sys.exit(2)
+    if note:
+        click.echo(f"fcsweep: warning: {note}", err=True)
     click.echo(f"{config}: OK, {len(cfg.runs())} runs "
                f"({' x '.join(f'{k}[{len(v)}]' for k, v in cfg.grid.items())} x {cfg.replicates} replicate(s)), "
                f"{cfg.run.steps} steps each, output {cfg.output}")
