@@ -152,3 +152,53 @@ def test_live_reader_notices_a_restart(tmp_path):
     with pytest.raises(TrajectoryError, match="restarted from step 0"):
         traj.read("position")
     assert open_trajectory(run).n_frames == 2
+
+
+RUNNER_SWEEP = """
+output: {out}
+seed: 3
+grid: {{eta: [0.1]}}
+model: {{N: 16, v0: 0.06, modes: 4, contour_points: 24, quadrature: binary}}
+run: {{steps: 3000, sample_every: 10, checkpoint_every: 50}}
+"""
+
+
+def test_reader_during_fcsweep_simulate_gets_exact_prefixes(tmp_path):
+    """The real writer: `fcsweep simulate` (slowed down per frame) in another process.
+    Every frame any open returned is bit for bit the finished trajectory's frame."""
+    cfg = tmp_path / "sweep.yaml"
+    cfg.write_text(RUNNER_SWEEP.format(out=tmp_path / "out"))
+    proc = subprocess.Popen([sys.executable, "-m", "fcsweep.cli", "simulate", str(cfg), "-q"],
+                            env={**os.environ, "FCSWEEP_TEST_SLOW": "0.01"}, stderr=subprocess.PIPE, text=True)
+    seen: dict[int, np.ndarray] = {}  # frame -> positions as read live
+    opens, live_opens = 0, 0
+    deadline = time.monotonic() + 300
+    try:
+        while proc.poll() is None and time.monotonic() < deadline:
+            runs = list((tmp_path / "out" / "runs").glob("*"))
+            if not runs:
+                time.sleep(0.01)
+                continue
+            try:
+                traj = open_trajectory(runs[0])
+            except TrajectoryError as exc:
+                assert "no trajectory file" in str(exc)
+                continue
+            opens += 1
+            live_opens += traj.live
+            if traj.n_frames:
+                pos = traj.read("position")
+                assert len(pos) == traj.n_frames == len(traj.step)
+                seen[traj.n_frames - 1] = pos[-1]
+                seen[0] = pos[0]
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        err = proc.communicate()[1]
+    assert proc.returncode == 0, err
+    final = open_trajectory(runs[0])
+    assert not final.live and final.n_frames == 301
+    assert live_opens >= 10 and len(seen) >= 5, (live_opens, sorted(seen))
+    for k, pos in seen.items():
+        assert k % 5 == 0  # frames 0..5k after the checkpoint at step 50k: only those counts are visible
+        assert np.array_equal(pos, final.read("position", [k])[0]), k
