@@ -652,9 +652,9 @@ MAX_STEP_PER_R0 = 0.1
 #: Largest D_r dt: the discrete walk has D = D0 (D_r dt / 2) coth(D_r dt / 2) = D0 (1 + (D_r dt)^2/12 + ...).
 MAX_DR_DT = 0.1
 
-#: Closed ranges of the model parameters (density: lo <= rho < 1).  Lower bounds > 0 keep
-#: float64 meaningful: at density 1e-6 the box is ~2000 R0 per cell row, at dt 1e-6 a step
-#: still moves a cell far above the rounding of its position.
+#: Closed ranges of the model parameters (density: lo <= rho < 1).  The lower bounds of
+#: density and dt catch underflowed values (1e-320): at density 1e-6 the lattice constant
+#: is already ~1900 R0, and dt 1e-6 is 5000 x below the paper's step.
 PARAM_RANGES: dict[str, tuple[float, float]] = {
     "N": (4, 10**6),
     "eta": (0.0, 1e3),
