@@ -44,6 +44,20 @@ def _load(config: str | None, output: str | None = None, *, to_run: bool = False
     return cfg
 
 
+def _check_space(cfg: SweepConfig, specs, what: str = "") -> None:
+    """Exit 2 unless the output directory can be created and the largest trajectory still
+    to write fits in its free space; warn if all of them together may not."""
+    from fcsweep.sweep.space import check_space
+
+    try:
+        note = check_space(cfg, specs)
+    except OSError as exc:
+        click.echo(f"fcsweep: {what}{exc.strerror or exc}", err=True)
+        sys.exit(2)
+    if note:
+        click.echo(f"fcsweep: warning: {note}", err=True)
+
+
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(package_name="fcsweep")
 def cli() -> None:
@@ -96,15 +110,7 @@ def simulate(config, output, workers, executor, scheduler, task_index, retry_fai
             click.echo(f"fcsweep: --workers {workers} is more than the {processes} core(s) available; "
                        f"using {processes}", err=True)
             workers = processes
-    from fcsweep.sweep.space import check_space
-
-    try:
-        note = check_space(cfg, specs)
-    except OSError as exc:
-        click.echo(f"fcsweep: {exc.strerror or exc}", err=True)
-        sys.exit(2)
-    if note:
-        click.echo(f"fcsweep: warning: {note}", err=True)
+    _check_space(cfg, specs)
     src = config or f"built-in demo ({builtin_demo_path().name})"
     click.echo(f"fcsweep: {len(specs)} run(s) of {src} -> {cfg.output} [{executor}"
                f"{', ' + str(workers) + ' workers' if executor == 'process' else ''}]", err=True)
@@ -250,17 +256,10 @@ def bench(config, compare, steps, warm, threads, workers, as_json):
 def validate(config):
     """Check a config file, its output directory and disk space; print the number of runs
     or the first problem (one line, exit 2)."""
-    from fcsweep.sweep.space import check_space
-
     cfg = _load(config, to_run=True)
-    try:  # the output can be created and the largest trajectory fits on its disk
-        note = check_space(cfg, cfg.runs())
-    except OSError as exc:
-        click.echo(f"fcsweep: invalid config: {config}: output: {exc.strerror or exc}", err=True)
-        sys.exit(2)
-    if note:
-        click.echo(f"fcsweep: warning: {note}", err=True)
-    click.echo(f"{config}: OK, {len(cfg.runs())} runs "
+    specs = cfg.runs()
+    _check_space(cfg, specs, f"invalid config: {config}: output: ")
+    click.echo(f"{config}: OK, {len(specs)} runs "
                f"({' x '.join(f'{k}[{len(v)}]' for k, v in cfg.grid.items())} x {cfg.replicates} replicate(s)), "
                f"{cfg.run.steps} steps each, output {cfg.output}")
 
