@@ -65,6 +65,12 @@ __all__ = [
     "run_id_of",
     "seed_of",
     "builtin_demo_path",
+    "PARAM_RANGES",
+    "MAX_RUNS",
+    "check_step_sizes",
+    "check_memory",
+    "run_memory_bytes",
+    "machine_memory_bytes",
 ]
 
 
