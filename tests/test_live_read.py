@@ -36,7 +36,8 @@ def synthetic_frame(k: int) -> dict:
 
 
 def write_like_the_runner(run_dir: str, total: int) -> None:
-    """Writer process: spill 2 frames, append 3 more, checkpoint; finally repack and rename."""
+    """Writer process: spill 2 frames, append 3 more, checkpoint, integrate (10 ms); finally
+    repack and rename."""
     from fcsweep.io.checkpoint import save_checkpoint
     from fcsweep.io.h5md import append_frames, create_trajectory, repack, set_attrs
 
@@ -53,6 +54,7 @@ def write_like_the_runner(run_dir: str, total: int) -> None:
                                 expected_start=written)
         save_checkpoint(run / schema.CHECKPOINT, {"state": np.zeros(4)},
                         {"frames": written, "step": 10 * (written - 1)})
+        time.sleep(0.01)  # the runner integrates between checkpoints
     set_attrs(partial, schema.PARAMETERS, {"complete": 1})
     packed = run / ".repack.tmp"
     repack(partial, packed)
@@ -69,7 +71,7 @@ def _start_writer(run: Path, total: int) -> subprocess.Popen:
 def test_reader_of_a_running_trajectory_sees_only_checkpointed_frames(tmp_path):
     run = tmp_path / "runs" / "abc123"
     run.mkdir(parents=True)
-    total = 400
+    total = 600
     proc = _start_writer(run, total)
     rd = RunDirectory(run, run.name, 0)
     opens, sizes, last_n = 0, set(), 0
@@ -102,7 +104,7 @@ def test_reader_of_a_running_trajectory_sees_only_checkpointed_frames(tmp_path):
             proc.kill()
         err = proc.communicate()[1]
     assert proc.returncode == 0, err
-    assert opens >= 50 and len(sizes) >= 10, (opens, sorted(sizes))  # the reader really raced the writer
+    assert opens >= 20 and len(sizes) >= 10, (opens, sorted(sizes))  # the reader really raced the writer
     final = open_trajectory(run)
     assert not final.live and final.n_frames == total and final.path.name == schema.TRAJECTORY
 

@@ -18,6 +18,7 @@ import h5py
 import numpy as np
 
 from fcsweep.io import schema
+from fcsweep.io.h5md import write_count
 from fcsweep.io.rundir import RunDirectory
 from fcsweep.io.schema import PARAMETERS
 from fcsweep.io.schema import PARTICLES as CELLS
@@ -117,12 +118,11 @@ def _committed_frames(partial: Path) -> int:
 
 
 def _read_live(partial: Path, n: int, inode: int, read):
-    """``read(h5py.File)`` on a running run's partial file, retried until it succeeds with
-    the same file (no restart from step 0 meanwhile) still covering ``n`` checkpointed
-    frames.  Frames below the checkpoint's count are never rewritten with other values, so
-    a read that passes its Fletcher-32 checksums and these checks is exact; a torn chunk
-    or a half-updated index fails the checksums and is read again.  Once the run has
-    finished, the repacked ``trajectory.h5`` (the same frames) is read instead."""
+    """``read(h5py.File)`` on a running run's partial file, retried until no writer touched
+    the file during the read (the same even :func:`write_count` before and after: a
+    seqlock), the file is the one opened first (no restart from step 0 meanwhile), and its
+    checkpoint still covers ``n`` frames.  Once the run has finished, the repacked
+    ``trajectory.h5`` (the same frames) is read instead."""
     final = partial.with_name(schema.TRAJECTORY)
     deadline = _time.monotonic() + LIVE_RETRY_SECONDS
     delay, problem = 0.002, "?"
@@ -133,11 +133,16 @@ def _read_live(partial: Path, n: int, inode: int, read):
                     return read(f)
             if partial.stat().st_ino != inode:
                 raise TrajectoryError(f"{partial}: the run restarted from step 0 since it was opened; open it again")
-            with h5py.File(partial, "r", locking=False) as f:
-                out = read(f)
-            if partial.exists() and partial.stat().st_ino == inode and _committed_frames(partial) >= n:
-                return out
-            problem = "the file changed while it was read"
+            before = write_count(partial)
+            if before % 2:
+                problem = "a write is in progress (or its writer died during one)"
+            else:
+                with h5py.File(partial, "r", locking=False) as f:
+                    out = read(f)
+                if (write_count(partial) == before and partial.exists() and partial.stat().st_ino == inode
+                        and _committed_frames(partial) >= n):
+                    return out
+                problem = "the file changed while it was read"
         except TrajectoryError:
             raise
         except (OSError, KeyError, ValueError, RuntimeError) as exc:
