@@ -109,9 +109,9 @@ def test_reader_of_a_running_trajectory_sees_only_checkpointed_frames(tmp_path):
     assert not final.live and final.n_frames == total and final.path.name == schema.TRAJECTORY
 
 
-def test_live_reader_limits_and_reports(tmp_path):
+def test_live_reader_limits_and_reports(tmp_path, monkeypatch):
     """Frames past the checkpoint are invisible; indices past them are an error; no
-    checkpoint yet means no frames."""
+    checkpoint yet means no frames; reads in pieces (one frame each here) give the same."""
     from fcsweep.io.checkpoint import save_checkpoint
     from fcsweep.io.h5md import append_frames, create_trajectory
 
@@ -121,7 +121,8 @@ def test_live_reader_limits_and_reports(tmp_path):
     create_trajectory(partial, n_cells=N_CELLS, box=[20.0, 20.0], modes_width=0, fields=("position", "image"),
                       parameters={}, dt=0.005, frames_per_chunk=PER_CHECKPOINT)
     append_frames(partial, [synthetic_frame(k) for k in range(7)])
-    assert open_trajectory(run).n_frames == 0  # no checkpoint: nothing is committed
+    empty = open_trajectory(run)  # no checkpoint: nothing is committed
+    assert empty.n_frames == 0 and empty.read("position").shape == (0, N_CELLS, 2)
     save_checkpoint(run / schema.CHECKPOINT, {"state": np.zeros(1)}, {"frames": 5})
     traj = open_trajectory(partial)
     assert traj.live and traj.n_frames == 5 and list(traj.step) == [0, 10, 20, 30, 40]
@@ -129,6 +130,10 @@ def test_live_reader_limits_and_reports(tmp_path):
     assert np.array_equal(traj.unwrapped([-1])[0], synthetic_frame(4)["position"] + 5 * 20.0)
     with pytest.raises(TrajectoryError, match="out of range for 5 frames"):
         traj.read("position", [5])
+    whole = traj.read("position")
+    monkeypatch.setattr("fcsweep.analysis.trajectory.LIVE_PIECE_BYTES", 1)
+    assert np.array_equal(traj.read("position"), whole)
+    assert np.array_equal(traj.read("position", [4, 0, 2, 0]), whole[[4, 0, 2, 0]])
     with h5py.File(partial, "r") as f:  # the file itself holds 7: a plain reader would see them
         assert f[f"{schema.PARTICLES}/position/value"].shape[0] == 7
 

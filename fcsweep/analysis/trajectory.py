@@ -78,29 +78,23 @@ class Trajectory:
         the last frame; all if None)."""
         if name not in self.fields:
             raise TrajectoryError(f"{self.path}: field {name!r} is not stored (has {list(self.fields)})")
-        n = self.n_frames
-        idx = None
-        if frames is not None:
+        n, key = self.n_frames, f"{CELLS}/{name}/value"
+        if frames is None:
+            uniq, inv = np.arange(n), None
+        else:
             idx = np.asarray(frames, dtype=np.int64)
             if idx.size and (idx.min() < -n or idx.max() >= n):
                 raise TrajectoryError(f"{self.path}: frame index out of range for {n} frames")
-            idx = idx % max(n, 1)
-
-        def rows(f: h5py.File) -> np.ndarray:
-            ds = f[f"{CELLS}/{name}/value"]
-            if idx is None:
-                return ds[:n]
-            uniq, inv = np.unique(idx, return_inverse=True)
-            if uniq.size and uniq[-1] - uniq[0] + 1 == uniq.size:  # contiguous: one slice
-                data = ds[int(uniq[0]):int(uniq[-1]) + 1]
-            else:
-                data = ds[uniq.tolist()]
-            return data[inv]
-
+            uniq, inv = np.unique(idx % max(n, 1), return_inverse=True)
         if not self.live:
             with h5py.File(self.path, "r", locking=False) as f:
-                return rows(f)
-        return _read_live(self.path, n, self._inode, rows)
+                data = _rows(f[key], uniq)
+        else:  # pieces, each checked on its own: a long read need not fit between two appends
+            rows = max(1, LIVE_PIECE_BYTES // (8 * self.n_cells * max(2, self.modes_width)))
+            pieces = [uniq[i:i + rows] for i in range(0, len(uniq), rows)] or [uniq]
+            data = np.concatenate([_read_live(self.path, n, self._inode, lambda f, p=p: _rows(f[key], p))
+                                   for p in pieces])
+        return data if inv is None else data[inv]
 
     def unwrapped(self, frames=None) -> np.ndarray:
         """Unwrapped centroids ``position + image * edges``, shape (F, N, 2)."""
@@ -109,8 +103,19 @@ class Trajectory:
         return pos + img * self.box
 
 
-#: A reader of a running trajectory retries this long while the writer is mid-append.
+#: A reader of a running trajectory retries this long while the writer is mid-append ...
 LIVE_RETRY_SECONDS = 10.0
+#: ... and reads it in pieces of about this many bytes.
+LIVE_PIECE_BYTES = 4 << 20
+
+
+def _rows(ds: h5py.Dataset, uniq: np.ndarray) -> np.ndarray:
+    """Rows ``uniq`` (sorted, distinct) of a dataset: one slice when contiguous."""
+    if uniq.size == 0:
+        return ds[0:0]
+    if uniq[-1] - uniq[0] + 1 == uniq.size:
+        return ds[int(uniq[0]):int(uniq[-1]) + 1]
+    return ds[uniq.tolist()]
 
 
 def _committed_frames(partial: Path) -> int:
