@@ -13,6 +13,7 @@ import json
 import time as _time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import h5py
 import numpy as np
@@ -92,8 +93,7 @@ class Trajectory:
         else:  # pieces, each checked on its own: a long read need not fit between two appends
             rows = max(1, LIVE_PIECE_BYTES // (8 * self.n_cells * max(2, self.modes_width)))
             pieces = [uniq[i:i + rows] for i in range(0, len(uniq), rows)] or [uniq]
-            data = np.concatenate([_read_live(self.path, n, self._inode, lambda f, p=p: _rows(f[key], p))
-                                   for p in pieces])
+            data = _read_live(self.path, n, self._inode, lambda f, p: _rows(f[key], p), pieces)
         return data if inv is None else data[inv]
 
     def unwrapped(self, frames=None) -> np.ndarray:
@@ -122,41 +122,62 @@ def _committed_frames(partial: Path) -> int:
     return RunDirectory(partial.parent, partial.parent.name, -1).committed_frames()
 
 
-def _read_live(partial: Path, n: int, inode: int, read):
-    """``read(h5py.File)`` on a running run's partial file, retried until no writer touched
-    the file during the read (the same even :func:`write_count` before and after: a
-    seqlock), the file is the one opened first (no restart from step 0 meanwhile), and its
-    checkpoint still covers ``n`` frames.  Once the run has finished, the repacked
-    ``trajectory.h5`` (the same frames) is read instead."""
+def _try_live(partial: Path, n: int, inode: int, read) -> tuple[bool, Any]:
+    """One attempt of ``read(h5py.File)`` on a running run's partial file: ``(True,
+    result)`` if no writer touched the file during the read (the same even
+    :func:`write_count` before and after: a seqlock), the file is the one opened first (no
+    restart from step 0 meanwhile) and its checkpoint still covers ``n`` frames, else
+    ``(False, why)``.  Once the run has finished, the repacked ``trajectory.h5`` (the same
+    frames) is read instead."""
     final = partial.with_name(schema.TRAJECTORY)
+    try:
+        if not partial.exists() and final.exists():
+            with h5py.File(final, "r", locking=False) as f:
+                return True, read(f)
+        if partial.stat().st_ino != inode:
+            raise TrajectoryError(f"{partial}: the run restarted from step 0 since it was opened; open it again")
+        before = write_count(partial)
+        if before % 2:
+            return False, "a write is in progress (or its writer died during one)"
+        with h5py.File(partial, "r", locking=False) as f:
+            out = read(f)
+        if (write_count(partial) == before and partial.exists() and partial.stat().st_ino == inode
+                and _committed_frames(partial) >= n):
+            return True, out
+        return False, "the file changed while it was read"
+    except TrajectoryError:
+        raise
+    except (OSError, KeyError, ValueError, RuntimeError) as exc:
+        return False, f"{type(exc).__name__}: {exc}"
+
+
+def _read_live(partial: Path, n: int, inode: int, read, pieces=None):
+    """:func:`_try_live` until it succeeds (giving up after LIVE_RETRY_SECONDS without
+    progress).  With ``pieces`` (index arrays), ``read(f, piece)`` is called per piece and
+    the results concatenated; a piece that meets a write is split in two, so that reads
+    progress even when appends come quickly."""
+    todo = [None] if pieces is None else list(reversed(pieces))
+    done, problem = [], "?"
     deadline = _time.monotonic() + LIVE_RETRY_SECONDS
-    delay, problem = 0.002, "?"
-    while True:
-        try:
-            if not partial.exists() and final.exists():
-                with h5py.File(final, "r", locking=False) as f:
-                    return read(f)
-            if partial.stat().st_ino != inode:
-                raise TrajectoryError(f"{partial}: the run restarted from step 0 since it was opened; open it again")
-            before = write_count(partial)
-            if before % 2:
-                problem = "a write is in progress (or its writer died during one)"
-            else:
-                with h5py.File(partial, "r", locking=False) as f:
-                    out = read(f)
-                if (write_count(partial) == before and partial.exists() and partial.stat().st_ino == inode
-                        and _committed_frames(partial) >= n):
-                    return out
-                problem = "the file changed while it was read"
-        except TrajectoryError:
-            raise
-        except (OSError, KeyError, ValueError, RuntimeError) as exc:
-            problem = f"{type(exc).__name__}: {exc}"
+    delay = 0.001
+    while todo:
+        piece = todo.pop()
+        ok, got = _try_live(partial, n, inode, read if piece is None else (lambda f, p=piece: read(f, p)))
+        if ok:
+            done.append(got)
+            deadline, delay = _time.monotonic() + LIVE_RETRY_SECONDS, 0.001
+            continue
+        problem = got
+        if piece is not None and len(piece) > 1:
+            todo += [piece[len(piece) // 2:], piece[:len(piece) // 2]]
+        else:
+            todo.append(piece)
         if _time.monotonic() > deadline:
             raise TrajectoryError(f"{partial}: running trajectory not readable for {LIVE_RETRY_SECONDS:g} s "
                                   f"({problem})")
         _time.sleep(delay)
-        delay = min(2 * delay, 0.1)
+        delay = min(2 * delay, 0.05)
+    return done[0] if pieces is None else np.concatenate(done)
 
 
 def _metadata(f: h5py.File, path: Path, limit: int | None):
