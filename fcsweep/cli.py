@@ -98,6 +98,20 @@ def _wrong_dir_hint(config, output) -> str:
     return "without CONFIG every command uses the built-in demo in ./fcsweep-demo; give your sweep's config"
 
 
+def _check_space(cfg: SweepConfig, specs, what: str = "") -> None:
+    """Exit 2 unless the output directory can be created and the largest trajectory still
+    to write fits in its free space; warn if all of them together may not."""
+    from fcsweep.sweep.space import check_space
+
+    try:
+        note = check_space(cfg, specs)
+    except OSError as exc:
+        click.echo(f"fcsweep: {what}{exc.strerror or exc}", err=True)
+        sys.exit(2)
+    if note:
+        click.echo(f"fcsweep: warning: {note}", err=True)
+
+
 @click.group(cls=WorkflowGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(package_name="fcsweep")
 def cli() -> None:
@@ -405,9 +419,12 @@ def bench(config, compare, steps, warm, threads, workers, as_json):
 @cli.command()
 @click.argument("config", type=click.Path(dir_okay=False))
 def validate(config):
-    """Check a config file; print the number of runs or the first problem (exit 2)."""
+    """Check a config file, its output directory and disk space; print the number of runs
+    or the first problem (one line, exit 2)."""
     cfg = _load(config, to_run=True)
-    click.echo(f"{config}: OK, {len(cfg.runs())} runs "
+    specs = cfg.runs()
+    _check_space(cfg, specs, f"invalid config: {config}: output: ")
+    click.echo(f"{config}: OK, {len(specs)} runs "
                f"({' x '.join(f'{k}[{len(v)}]' for k, v in cfg.grid.items())} x {cfg.replicates} replicate(s)), "
                f"{cfg.run.steps} steps each, output {Path(cfg.output).resolve()}")
 
@@ -618,19 +635,6 @@ def _runs(cfg: SweepConfig) -> list:
     except ConfigError as exc:
         click.echo(f"fcsweep: invalid config: {exc}", err=True)
         sys.exit(2)
-
-
-def _check_space(cfg: SweepConfig, specs) -> None:
-    """Exit 2 if one run's trajectory cannot fit on the output's disk; warn if all may not."""
-    from fcsweep.sweep.space import check_space
-
-    try:
-        note = check_space(cfg, specs)
-    except OSError as exc:
-        click.echo(f"fcsweep: {exc.strerror or exc}", err=True)
-        sys.exit(2)
-    if note:
-        click.echo(f"fcsweep: warning: {note}", err=True)
 
 
 def _refine_compute(cfg: SweepConfig, workers: int, quiet: bool) -> int:

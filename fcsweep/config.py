@@ -45,6 +45,10 @@ import itertools
 import json
 import math
 import os
+import re
+import reprlib
+import stat
+from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
@@ -72,11 +76,23 @@ __all__ = [
     "run_id_of",
     "seed_of",
     "builtin_demo_path",
+    "PARAM_RANGES",
+    "MAX_RUNS",
+    "check_step_sizes",
+    "check_memory",
+    "run_memory_bytes",
+    "machine_memory_bytes",
 ]
 
 
 class ConfigError(ValueError):
-    """An invalid sweep configuration; the message names key, value and what is allowed."""
+    """An invalid sweep configuration; the message names key, value and what is allowed.
+
+    The message is always one line (line breaks of quoted parser messages are folded).
+    """
+
+    def __init__(self, message: str):
+        super().__init__(re.sub(r"\s*[\r\n]+\s*", " ", str(message)).strip())
 
 
 #: Model parameters and their defaults (docs/model.md); ``None`` means "must be given".
@@ -294,16 +310,42 @@ def _construct_mapping(loader, node, deep=False):
     seen = set()
     for key_node, _ in node.value:
         key = loader.construct_object(key_node, deep=deep)
+        try:
+            hash(key)
+        except TypeError:
+            raise ConfigError(
+                f"complex key {_source_text(key_node)} "
+                f"(line {key_node.start_mark.line + 1}); "
+                "keys must be plain names, not lists or mappings"
+            ) from None
         if key in seen:
             raise ConfigError(
-                f"duplicate key {key!r} (line {key_node.start_mark.line + 1}); "
+                f"duplicate key {_show(key)} (line {key_node.start_mark.line + 1}); "
                 "each key may appear once per section"
             )
         seen.add(key)
     return yaml.SafeLoader.construct_mapping(loader, node, deep=deep)
 
 
+def _source_text(node) -> str:
+    """The YAML text of a node, on one line and cut short."""
+    start, end = node.start_mark, node.end_mark
+    text = " ".join(str(start.buffer or "")[start.index:end.index].split())
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
 _UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
+
+
+def _construct_int(loader, node):
+    try:
+        return yaml.SafeLoader.construct_yaml_int(loader, node)
+    except ValueError:  # more digits than int() converts (sys.get_int_max_str_digits)
+        raise ConfigError(f"the integer at line {node.start_mark.line + 1} has {len(node.value)} digits; "
+                          "no setting takes more than 20") from None
+
+
+_UniqueKeyLoader.add_constructor("tag:yaml.org,2002:int", _construct_int)
 
 
 def builtin_demo_path() -> Path:
@@ -322,28 +364,34 @@ def load_config(path: str | os.PathLike) -> SweepConfig:
         If the file is missing, not YAML, or any value is invalid.
     """
     path = Path(path)
-    try:
-        text = path.read_text()
-    except OSError as exc:
-        raise ConfigError(f"cannot read config file {str(path)!r}: {exc.strerror}") from None
-    return parse_config(text, source=str(path))
+    return parse_config(_read_text(path), source=str(path))
 
 
 def parse_config(text: str, source: str = "<string>") -> SweepConfig:
     """Validate a sweep given as YAML text. See :func:`load_config`."""
+    if len(text) > MAX_CONFIG_BYTES:
+        raise ConfigError(f"{source}: {len(text)} characters; a sweep file has at most {MAX_CONFIG_BYTES}")
     try:
         data = yaml.load(text, Loader=_UniqueKeyLoader)
-    except ConfigError:
-        raise
+    except ConfigError as exc:
+        raise ConfigError(f"{source}: {exc}") from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
         problem = getattr(exc, "problem", None) or str(exc)
         raise ConfigError(f"{source}: not valid YAML{where}: {problem}") from None
+    except RecursionError:
+        raise ConfigError(f"{source}: brackets or indentation nested too deeply to be a sweep file "
+                          f"(at most {MAX_NESTING} levels)") from None
+    except (ValueError, TypeError, OverflowError) as exc:  # e.g. an integer of more than 4300 digits
+        raise ConfigError(f"{source}: not a valid sweep file: {exc}") from None
     try:
+        _check_structure(data)
         return _validate(data, source)
     except ConfigError as exc:
         raise ConfigError(f"{source}: {exc}") from None
+    except (ArithmeticError, TypeError, ValueError, RecursionError) as exc:  # a check missed: still no traceback
+        raise ConfigError(f"{source}: {UNCHECKED} ({type(exc).__name__}: {exc})") from None
 
 
 # -------------------------------------------------------------------------- validation
@@ -355,7 +403,7 @@ def _unknown(key: str, allowed, where: str) -> ConfigError:
         close = [a for a in allowed if str(a).lower() == str(key).lower()]
     hint = f"; did you mean {close[0]!r}?" if close else ""
     return ConfigError(
-        f"unknown key {where}{key!r}{hint} (allowed: {', '.join(map(str, allowed))})"
+        f"unknown key {where}{_show(key)}{hint} (allowed: {', '.join(map(str, allowed))})"
     )
 
 
@@ -373,11 +421,15 @@ def _is_real(x) -> bool:
     return isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, bool)
 
 
-def _int(value, key: str, *, minimum: int | None = None) -> int:
+def _int(value, key: str, *, minimum: int | None = None, maximum: int | None = None) -> int:
     if isinstance(value, float) and value.is_integer() and abs(value) < 2**53:
         value = int(value)
+    if maximum is not None and _is_real(value) and value > maximum:  # also 1e30, before int() of it
+        low = f"{minimum} <= " if minimum is not None else ""
+        raise ConfigError(f"{key} = {_show(value)} is out of range; allowed {low}{key.rsplit('.', 1)[-1]} <= "
+                          f"{maximum}")
     if not _is_int(value):
-        raise ConfigError(f"{key} = {value!r} must be an integer")
+        raise ConfigError(f"{key} = {_show(value)} must be an integer")
     value = int(value)
     if minimum is not None and value < minimum:
         raise ConfigError(f"{key} = {value} must be an integer >= {minimum}")
@@ -386,8 +438,11 @@ def _int(value, key: str, *, minimum: int | None = None) -> int:
 
 def _real(value, key: str) -> float:
     if not _is_real(value):
-        raise ConfigError(f"{key} = {value!r} must be a number")
-    value = float(value)
+        raise ConfigError(f"{key} = {_show(value)} must be a number")
+    try:
+        value = float(value)
+    except OverflowError:  # an int beyond float range
+        raise ConfigError(f"{key} = {_show(value)} must be a finite number") from None
     if not math.isfinite(value):
         raise ConfigError(f"{key} = {value!r} must be a finite number")
     return value
@@ -398,10 +453,10 @@ def _check_param(name: str, value, where: str) -> Any:
     key = f"{where}.{name}"
     if name in STR_PARAMS:
         if not isinstance(value, str) or value not in STR_PARAMS[name]:
-            raise ConfigError(f"{key} = {value!r} is not allowed; choose one of {list(STR_PARAMS[name])}")
+            raise ConfigError(f"{key} = {_show(value)} is not allowed; choose one of {list(STR_PARAMS[name])}")
         return value
     if name == "N":
-        n = _int(value, key, minimum=4)
+        n = _int(value, key, minimum=4, maximum=PARAM_RANGES["N"][1])
         from fcsweep.model.lattice import lattice_side
 
         try:
@@ -415,7 +470,7 @@ def _check_param(name: str, value, where: str) -> Any:
             raise ConfigError(f"{key} = {m} is not allowed; modes is 0 (rigid discs) or 2..32")
         return m
     if name == "contour_points":
-        return _int(value, key, minimum=8)
+        return _int(value, key, minimum=8, maximum=PARAM_RANGES["contour_points"][1])
     x = _real(value, key)
     if name in ("eta", "v0", "Dr") and x < 0:
         raise ConfigError(f"{key} = {value!r} is out of range; {name} must be >= 0")
@@ -425,7 +480,7 @@ def _check_param(name: str, value, where: str) -> Any:
         raise ConfigError(f"{key} = {value!r} is out of range; density must lie in (0, 1)")
     if name in ("dt", "R0") and x <= 0:
         raise ConfigError(f"{key} = {value!r} is out of range; {name} must be > 0")
-    return x
+    return _check_range(name, x, key)
 
 
 def _grid_values(name: str, spec) -> tuple:
@@ -435,19 +490,19 @@ def _grid_values(name: str, spec) -> tuple:
         missing = [k for k in ("start", "stop", "num") if k not in spec]
         if missing:
             raise ConfigError(
-                f"{key} = {dict(spec)!r} is missing {missing}; a range is {{start, stop, num[, log]}}"
+                f"{key} = {_show(dict(spec))} is missing {missing}; a range is {{start, stop, num[, log]}}"
             )
         start = _real(spec["start"], f"{key}.start")
         stop = _real(spec["stop"], f"{key}.stop")
-        num = _int(spec["num"], f"{key}.num", minimum=1)
+        num = _int(spec["num"], f"{key}.num", minimum=1, maximum=MAX_RUNS)
         log = spec.get("log", False)
         if not isinstance(log, bool):
-            raise ConfigError(f"{key}.log = {log!r} must be true or false")
+            raise ConfigError(f"{key}.log = {_show(log)} must be true or false")
         if name in STR_PARAMS:
-            raise ConfigError(f"{key} = {dict(spec)!r}: {name} takes a list of names, not a range")
+            raise ConfigError(f"{key} = {_show(dict(spec))}: {name} takes a list of names, not a range")
         if log:
             if start <= 0 or stop <= 0:
-                raise ConfigError(f"{key} = {dict(spec)!r}: a log range needs start > 0 and stop > 0")
+                raise ConfigError(f"{key} = {_show(dict(spec))}: a log range needs start > 0 and stop > 0")
             values = np.geomspace(start, stop, num)
         else:
             values = np.linspace(start, stop, num)
@@ -456,7 +511,7 @@ def _grid_values(name: str, spec) -> tuple:
         if name in INT_PARAMS:
             if any(not float(v).is_integer() for v in values):
                 raise ConfigError(
-                    f"{key} = {dict(spec)!r} gives non-integer values {values}; "
+                    f"{key} = {_show(dict(spec))} gives non-integer values {values}; "
                     f"{name} must be integers (use a list)"
                 )
             values = [int(v) for v in values]
@@ -467,12 +522,12 @@ def _grid_values(name: str, spec) -> tuple:
     elif isinstance(spec, (str, int, float)) and not isinstance(spec, bool):
         values = [spec]
     else:
-        raise ConfigError(f"{key} = {spec!r} must be a list of values or {{start, stop, num}}")
+        raise ConfigError(f"{key} = {_show(spec)} must be a list of values or {{start, stop, num}}")
     out = tuple(_check_param(name, v, "grid") for v in values)
-    canon = [_canon_value(name, v) for v in out]
-    if len(set(canon)) != len(canon):
-        dup = next(c for c in canon if canon.count(c) > 1)
-        raise ConfigError(f"{key} = {list(values)!r} repeats the value {dup}; each value once")
+    canon = Counter(_canon_value(name, v) for v in out)
+    if len(canon) != len(out):
+        dup = next(c for c, n in canon.items() if n > 1)
+        raise ConfigError(f"{key} = {_show(list(values))} repeats the value {dup}; each value once")
     return out
 
 
@@ -483,7 +538,9 @@ def check_runnable(cfg: "SweepConfig") -> None:
     - K > 2M contour points (:func:`fcsweep.model.shape.contour_points_problem`);
     - dt within the tension limit of the stiffest shape mode
       (:func:`fcsweep.model.shape.max_stable_dt`);
-    - quadrature and contour_points are not swept when every run has rigid discs.
+    - quadrature and contour_points are not swept when every run has rigid discs;
+    - step length and rotational step (:func:`check_step_sizes`);
+    - the largest run fits in this machine's memory (:func:`check_memory`).
 
     ``validate``, ``simulate``, ``bench`` and :func:`fcsweep.sweep.executors.run_sweep`
     call it before anything runs; the read-only commands (status, list-runs, analyze,
@@ -495,8 +552,7 @@ def check_runnable(cfg: "SweepConfig") -> None:
         return f"grid.{name}" if name in grid else f"model.{name}"
 
     names = ("dt", "eta", "modes", "mu_shape", "R0", "contour_points")
-    values = [grid[n] if n in grid else (model[n],) for n in names]
-    for dt, eta, modes, mu_shape, R0, K in itertools.product(*values):
+    for dt, eta, modes, mu_shape, R0, K in _grid_or_model(cfg, names):
         problem = contour_points_problem(K, modes)
         if problem:
             raise ConfigError(f"{cfg.source}: {where('contour_points')}: {problem}")
@@ -510,6 +566,11 @@ def check_runnable(cfg: "SweepConfig") -> None:
                     f"{cfg.source}: grid.{name} = {list(grid[name])!r} is swept but does not change the physics "
                     "with modes = 0 (rigid discs: exact lens overlaps, no contour); the runs would differ only in "
                     "their noise. Sweep it with modes >= 2 or remove it")
+    try:
+        check_step_sizes(cfg)
+        check_memory(cfg)
+    except ConfigError as exc:
+        raise ConfigError(f"{cfg.source}: {exc}") from None
 
 
 def _validate(data, source: str) -> SweepConfig:
@@ -531,52 +592,54 @@ def _validate(data, source: str) -> SweepConfig:
             raise ConfigError("output.dir is missing; give the sweep directory")
         fields = out.get("fields", list(DEFAULT_FIELDS))
         if not isinstance(fields, (list, tuple)) or not all(isinstance(f, str) for f in fields):
-            raise ConfigError(f"output.fields = {fields!r} must be a list of names from {list(FIELDS)}")
+            raise ConfigError(f"output.fields = {_show(fields)} must be a list of names from {list(FIELDS)}")
         for f in fields:
             if f not in FIELDS:
                 raise _unknown(f, FIELDS, "in output.fields: ")
         fields = tuple(f for f in FIELDS if f in set(fields) | {"position", "image"})
         comp = out.get("compression", "gzip")
         if comp not in COMPRESSIONS:
-            raise ConfigError(f"output.compression = {comp!r} is not allowed; choose one of {list(COMPRESSIONS)}")
+            raise ConfigError(f"output.compression = {_show(comp)} is not allowed; choose one of {list(COMPRESSIONS)}")
         level = _int(out.get("compression_level", 4), "output.compression_level", minimum=0)
         if level > 9:
             raise ConfigError(f"output.compression_level = {level} is out of range; allowed 0..9")
         store = StoreSettings(fields=fields, compression=comp, compression_level=level)
         out = out["dir"]
     if not isinstance(out, str) or not out.strip():
-        raise ConfigError(f"output = {out!r} must be a directory path (string)")
+        raise ConfigError(f"output = {_show(out)} must be a directory path (string)")
+    _check_output_path(out)
     output = Path(os.path.expanduser(out))
 
     seed = _int(data.get("seed", 0), "seed", minimum=0)
     if seed >= 2**63:
         raise ConfigError(f"seed = {seed} is out of range; allowed 0 <= seed < 2**63")
-    replicates = _int(data.get("replicates", 1), "replicates", minimum=1)
+    replicates = _int(data.get("replicates", 1), "replicates", minimum=1, maximum=MAX_RUNS)
     description = data.get("description", "")
     if not isinstance(description, str):
-        raise ConfigError(f"description = {description!r} must be a string")
+        raise ConfigError(f"description = {_show(description)} must be a string")
 
     # grid
     grid_in = data["grid"]
     if not isinstance(grid_in, Mapping):
-        raise ConfigError(f"grid = {grid_in!r} must be a mapping of parameter -> values")
+        raise ConfigError(f"grid = {_show(grid_in)} must be a mapping of parameter -> values")
     if len(grid_in) == 0:
         raise ConfigError("grid = {} is empty; sweep at least one model parameter")
     _check_keys(grid_in, list(MODEL_DEFAULTS), "in grid: ")
+    _check_run_count(grid_in, replicates)
     grid = {str(k): _grid_values(str(k), v) for k, v in grid_in.items()}
     log_axes = tuple(str(k) for k, v in grid_in.items() if isinstance(v, Mapping) and v.get("log") is True)
 
     # model
     model_in = data.get("model") or {}
     if not isinstance(model_in, Mapping):
-        raise ConfigError(f"model = {model_in!r} must be a mapping of parameter -> value")
+        raise ConfigError(f"model = {_show(model_in)} must be a mapping of parameter -> value")
     _check_keys(model_in, list(MODEL_DEFAULTS), "in model: ")
     model: dict[str, Any] = {}
     for name, default in MODEL_DEFAULTS.items():
         if name in grid:
             if name in model_in:
                 raise ConfigError(
-                    f"model.{name} = {model_in[name]!r} is also swept in grid.{name}; "
+                    f"model.{name} = {_show(model_in[name])} is also swept in grid.{name}; "
                     "give it in one place only"
                 )
             continue
@@ -590,19 +653,20 @@ def _validate(data, source: str) -> SweepConfig:
     # run
     run_in = data["run"]
     if not isinstance(run_in, Mapping):
-        raise ConfigError(f"run = {run_in!r} must be a mapping")
+        raise ConfigError(f"run = {_show(run_in)} must be a mapping")
     _check_keys(run_in, RUN_KEYS, "in run: ")
     for req in ("steps", "sample_every"):
         if req not in run_in:
             raise ConfigError(f"run.{req} is missing")
-    steps = _int(run_in["steps"], "run.steps", minimum=1)
-    sample_every = _int(run_in["sample_every"], "run.sample_every", minimum=1)
+    steps = _int(run_in["steps"], "run.steps", minimum=1, maximum=MAX_STEPS)
+    sample_every = _int(run_in["sample_every"], "run.sample_every", minimum=1, maximum=MAX_STEPS)
     if steps % sample_every:
         raise ConfigError(
             f"run.steps = {steps} is not a multiple of run.sample_every = {sample_every}; "
             "steps must be a whole number of frames"
         )
-    checkpoint_every = _int(run_in.get("checkpoint_every", steps), "run.checkpoint_every", minimum=1)
+    checkpoint_every = _int(run_in.get("checkpoint_every", steps), "run.checkpoint_every", minimum=1,
+                            maximum=MAX_STEPS)
     if checkpoint_every % sample_every:
         raise ConfigError(
             f"run.checkpoint_every = {checkpoint_every} is not a multiple of run.sample_every = "
@@ -614,6 +678,7 @@ def _validate(data, source: str) -> SweepConfig:
     until = _until(run_in["until"], steps, sample_every, checkpoint_every) if run_in.get("until") is not None \
         else None
     run = RunSettings(steps, sample_every, checkpoint_every, transient, until)
+    _check_run_length(run, grid, model)
 
     return SweepConfig(
         output=output,
@@ -665,6 +730,265 @@ def _until(until_in, steps: int, sample_every: int, checkpoint_every: int) -> Un
                                   "(1-sigma error / |value|)")
             rel.append((name, x))
     return UntilSettings(check_every, min_steps, confidence, tuple(rel))
+
+
+# ------------------------------------------------ resource bounds and physical ranges
+#
+# Limits that keep every command fast and bounded in memory whatever a file says (runs
+# are counted arithmetically before any grid is expanded), and that keep the integration
+# faithful.  configs/README.md ("Allowed ranges") documents each of them.
+
+#: A sweep file is at most this large (bytes) ...
+MAX_CONFIG_BYTES = 1 << 20
+#: ... nests at most this deep (a sweep needs 4 levels: top, grid, key, range) ...
+MAX_NESTING = 16
+#: ... and holds at most this many values once YAML aliases are expanded.
+MAX_VALUES = 200_000
+#: Runs of one sweep (grid points x replicates); expanding 10^5 runs takes seconds.
+MAX_RUNS = 100_000
+#: Steps of one run (the step counter and step * dt stay exact far beyond).
+MAX_STEPS = 10**12
+#: Frames of one trajectory.
+MAX_FRAMES = 10**7
+#: N x steps of one run: 10^14 cell-steps are ~3 CPU-years at 10^6 cell-steps/s.
+MAX_CELL_STEPS = 10**14
+#: Output paths: bytes of the whole path and of one component (Linux PATH_MAX, NAME_MAX).
+MAX_PATH_BYTES, MAX_NAME_BYTES = 4095, 255
+#: Largest step length v0 dt as a fraction of the contour spacing 2 pi R0 / K ...
+MAX_STEP_PER_SPACING = 0.5
+#: ... and in units of R0 whatever K (rigid discs have no contour).
+MAX_STEP_PER_R0 = 0.1
+#: Largest D_r dt: the discrete walk has D = D0 (D_r dt / 2) coth(D_r dt / 2) = D0 (1 + (D_r dt)^2/12 + ...).
+MAX_DR_DT = 0.1
+
+#: Closed ranges of the model parameters (density: lo <= rho < 1).  The lower bounds of
+#: density and dt catch underflowed values (1e-320): at density 1e-6 the lattice constant
+#: is already ~1900 R0, and dt 1e-6 is 5000 x below the paper's step.
+PARAM_RANGES: dict[str, tuple[float, float]] = {
+    "N": (4, 10**6),
+    "eta": (0.0, 1e3),
+    "v0": (0.0, 1e3),
+    "Dr": (0.0, 1e3),
+    "density": (1e-6, 1.0),
+    "dt": (1e-6, 1.0),
+    "contour_points": (8, 4096),
+    "modes": (0, 32),
+    "R0": (1e-3, 1e3),
+    "mu_theta": (0.0, 1e3),
+    "mu_shape": (0.0, 1e3),
+}
+
+#: Message of the safety net in :func:`parse_config` (tests assert it never appears).
+UNCHECKED = "a value no check anticipated"
+
+_REPR = reprlib.Repr()
+_REPR.maxstring = _REPR.maxother = 60
+_REPR.maxlist = _REPR.maxdict = _REPR.maxset = _REPR.maxtuple = 8
+_REPR.maxlevel = 3
+
+
+def _show(value) -> str:
+    """``repr`` cut to one short line (values may be huge or deeply nested)."""
+    try:
+        return _REPR.repr(value)
+    except (ValueError, RecursionError):  # e.g. an int beyond str()'s digit limit
+        return f"<{type(value).__name__}>"
+
+
+def _read_text(path: Path) -> str:
+    """The text of a sweep file: a regular file of at most MAX_CONFIG_BYTES of UTF-8."""
+    try:
+        st = path.stat()
+        if not stat.S_ISREG(st.st_mode):
+            kind = "a directory" if stat.S_ISDIR(st.st_mode) else "not a regular file"
+            raise ConfigError(f"config file {str(path)!r} is {kind}")
+        if st.st_size > MAX_CONFIG_BYTES:
+            raise ConfigError(f"config file {str(path)!r} has {st.st_size} bytes; a sweep file has at most "
+                              f"{MAX_CONFIG_BYTES}")
+        with open(path, "rb") as fh:
+            raw = fh.read(MAX_CONFIG_BYTES + 1)
+    except OSError as exc:
+        raise ConfigError(f"cannot read config file {str(path)!r}: {exc.strerror or exc}") from None
+    except ValueError as exc:  # e.g. a NUL byte in the path
+        raise ConfigError(f"cannot read config file {str(path)!r}: {exc}") from None
+    try:
+        return raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = raw[:exc.start].count(b"\n") + 1
+        raise ConfigError(f"{path}: not UTF-8 text: byte 0x{raw[exc.start]:02x} at line {line} "
+                          f"(offset {exc.start}); save the file as UTF-8") from None
+
+
+def _check_structure(data) -> None:
+    """Refuse YAML whose values nest too deeply, expand (through aliases) to too many
+    values, or contain themselves -- before anything walks or prints them."""
+    sizes: dict[int, int] = {}
+
+    def size(node, depth: int, path: str) -> int:
+        if not isinstance(node, (Mapping, list, set)):
+            return 1
+        if depth > MAX_NESTING:
+            raise ConfigError(f"{path or 'the file'} nests more than {MAX_NESTING} levels deep; "
+                              "a sweep file needs at most 4")
+        key = id(node)
+        if key in sizes:
+            if sizes[key] < 0:
+                raise ConfigError(f"{path} contains itself (a YAML alias inside its own anchor)")
+            return sizes[key]
+        sizes[key] = -1
+        items = node.items() if isinstance(node, Mapping) else enumerate(node)
+        total = 1
+        for k, v in items:
+            total += size(v, depth + 1, f"{path}.{k}" if path else str(k))
+            if total > MAX_VALUES:
+                raise ConfigError(f"{path or 'the file'} holds more than {MAX_VALUES} values (YAML aliases "
+                                  "expanded); a sweep file is far smaller")
+        sizes[key] = total
+        return total
+
+    size(data, 0, "")
+
+
+def _check_range(name: str, value, key: str):
+    """``value`` if it lies in ``PARAM_RANGES[name]`` (unknown names pass)."""
+    if name not in PARAM_RANGES:
+        return value
+    lo, hi = PARAM_RANGES[name]
+    upper = "<" if name == "density" else "<="
+    if not (lo <= value and (value < hi if upper == "<" else value <= hi)):
+        raise ConfigError(f"{key} = {_show(value)} is out of range; allowed {lo:g} <= {name} {upper} {hi:g}")
+    return value
+
+
+def _axis_length(name: str, spec) -> int:
+    """Values a grid entry will have, without expanding it (0 if it is malformed:
+    :func:`_grid_values` then says why)."""
+    if isinstance(spec, Mapping):
+        num = spec.get("num")
+        if isinstance(num, float) and num.is_integer() and math.isfinite(num):
+            num = int(num)
+        return num if _is_int(num) and num > 0 else 0
+    if isinstance(spec, (list, tuple)):
+        return len(spec)
+    return 1
+
+
+def _check_run_count(grid_in: Mapping, replicates: int) -> None:
+    """Refuse a sweep of more than MAX_RUNS runs, counted before any grid is expanded."""
+    lengths = {str(k): _axis_length(str(k), v) for k, v in grid_in.items()}
+    allowed = f"at most {MAX_RUNS} runs (grid points x replicates)"
+    for k, n in lengths.items():
+        if n > MAX_RUNS:
+            what = f"grid.{k}.num" if isinstance(grid_in[k], Mapping) else f"grid.{k}"
+            raise ConfigError(f"{what} gives {n} values; a sweep has {allowed}")
+    total = replicates * math.prod(max(n, 1) for n in lengths.values())
+    if total > MAX_RUNS:
+        shape = " x ".join(f"{k}[{n}]" for k, n in lengths.items())
+        raise ConfigError(f"grid {shape} x replicates {replicates} = {total} runs; a sweep has {allowed}: "
+                          "split it into several sweep files")
+
+
+def _check_run_length(run: RunSettings, grid: Mapping, model: Mapping) -> None:
+    """Frames and cell-steps of one run within MAX_FRAMES and MAX_CELL_STEPS."""
+    if run.n_frames > MAX_FRAMES:
+        raise ConfigError(f"run.sample_every = {run.sample_every} gives {run.n_frames} frames of run.steps = "
+                          f"{run.steps}; allowed at most {MAX_FRAMES} frames per run (sample less often)")
+    n_max = max(grid["N"]) if "N" in grid else model["N"]
+    if n_max * run.steps > MAX_CELL_STEPS:
+        where = "grid.N" if "N" in grid else "model.N"
+        raise ConfigError(f"run.steps = {run.steps} with {where} = {n_max} is {n_max * run.steps:.3g} cell-steps "
+                          f"per run; allowed N x steps <= {MAX_CELL_STEPS:.0e} (about 3 CPU-years)")
+
+
+def _check_output_path(output: str) -> None:
+    """Output paths that no file system can hold (NUL bytes, over-long names)."""
+    if "\0" in output:
+        raise ConfigError(f"output = {_show(output)} contains a NUL character; no file system allows it")
+    raw = os.fsencode(output)
+    if len(raw) > MAX_PATH_BYTES:
+        raise ConfigError(f"output = {_show(output)} is {len(raw)} bytes long; allowed at most {MAX_PATH_BYTES}")
+    for part in raw.split(b"/"):
+        if len(part) > MAX_NAME_BYTES:
+            raise ConfigError(f"output = {_show(output)} has a {len(part)}-byte component; allowed at most "
+                              f"{MAX_NAME_BYTES} bytes per directory name")
+
+
+def _grid_or_model(cfg: "SweepConfig", names) -> itertools.product:
+    """Every combination of the named parameters over the grid (at most MAX_RUNS)."""
+    return itertools.product(*(cfg.grid[n] if n in cfg.grid else (cfg.model[n],) for n in names))
+
+
+def check_step_sizes(cfg: "SweepConfig") -> None:
+    """Refuse grid points whose step moves a cell too far or turns it too much.
+
+    - ``v0 dt <= min(MAX_STEP_PER_SPACING * 2 pi R0 / K, MAX_STEP_PER_R0 * R0)`` (the
+      contour term only for ``modes >= 2``): contacts are sampled on the contour points,
+      and a cell that jumps a large part of their spacing per step overshoots its
+      neighbours' contours;
+    - ``D_r dt <= MAX_DR_DT``: the polarity decorrelates within a few steps beyond it,
+      and the discrete walk's D0 deviates by (D_r dt)^2 / 12 from v0^2 / (2 D_r).
+    """
+    def where(name):
+        return f"grid.{name}" if name in cfg.grid else f"model.{name}"
+
+    for v0, Dr, dt, R0, K, modes in _grid_or_model(cfg, ("v0", "Dr", "dt", "R0", "contour_points", "modes")):
+        limit = MAX_STEP_PER_R0 * R0
+        what = f"{MAX_STEP_PER_R0:g} R0"
+        if modes >= 2 and MAX_STEP_PER_SPACING * 2 * math.pi * R0 / K < limit:
+            limit = MAX_STEP_PER_SPACING * 2 * math.pi * R0 / K
+            what = f"half the contour spacing 2 pi R0/K with contour_points = {K}"
+        if v0 * dt > limit:
+            raise ConfigError(
+                f"{where('v0')} = {v0:g} with dt = {dt:g} (R0 = {R0:g}) moves a cell v0*dt = {v0 * dt:.3g} per "
+                f"step; allowed v0*dt <= {limit:.4g} ({what}): lower dt or v0")
+        if Dr * dt > MAX_DR_DT:
+            raise ConfigError(
+                f"{where('Dr')} = {Dr:g} with dt = {dt:g} gives Dr*dt = {Dr * dt:.3g}; allowed Dr*dt <= "
+                f"{MAX_DR_DT:g} (beyond it the discrete walk no longer has D0 = v0^2/(2 Dr)): lower dt or Dr")
+
+
+def run_memory_bytes(N: int, contour_points: int, modes: int, quadrature: str = "arc") -> int:
+    """Estimated memory of one run's simulation (bytes): the per-cell work arrays of the
+    kernels (contour samples, tangents and weights, 2K + 5 (2K + 4) doubles per cell; the
+    neighbour list; the arc rule's pair buffer) plus the state and one frame buffer of
+    the sweep runner (64 MiB)."""
+    K, M1 = int(contour_points), max(int(modes) - 1, 0)
+    per_cell = 2 * K + 5 * (2 * K + 4) + 5 + (4 + 2 * M1) + 3 + (3 + 2 * M1) + 1 + 2 * 16 + 4 + 2 * (5 + 2 * M1)
+    if quadrature == "arc":
+        per_cell += 16 * (4 + 2 * M1)
+    return 8 * int(N) * per_cell + (64 << 20)
+
+
+def machine_memory_bytes() -> int | None:
+    """Physical memory of this machine, or the cgroup's limit if lower (``None``: unknown)."""
+    try:
+        total = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):
+        total = None
+    for limit_file in ("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory/memory.limit_in_bytes"):
+        try:
+            text = Path(limit_file).read_text().strip()
+        except OSError:
+            continue
+        if text.isdigit() and (total is None or int(text) < total):
+            total = int(text)
+        break
+    return total
+
+
+def check_memory(cfg: "SweepConfig", available: int | None = None) -> None:
+    """Refuse a sweep whose largest run needs more memory than this machine has
+    (``available``: bytes, default :func:`machine_memory_bytes`)."""
+    available = machine_memory_bytes() if available is None else available
+    if not available:
+        return
+    combos = _grid_or_model(cfg, ("N", "contour_points", "modes", "quadrature"))
+    need, worst = max((run_memory_bytes(*c), c) for c in combos)
+    if need > available:
+        N, K, modes, quad = worst
+        key = next((f"grid.{k}" for k in ("N", "contour_points") if k in cfg.grid), "model.N")
+        raise ConfigError(f"{key}: a run with N = {N}, contour_points = {K}, modes = {modes} ({quad}) needs about "
+                          f"{need / 2**30:.1f} GiB of memory; this machine has {available / 2**30:.1f} GiB")
 
 
 # ---------------------------------------------------------------------------- run ids

@@ -113,20 +113,31 @@ def test_missing_file_is_config_error(tmp_path):
 BAD_FILES = sorted(BAD.glob("*.yaml"))
 
 
+def _expected(path: Path) -> str:
+    """The ``# expect: ...`` first line (read as bytes: some files are not UTF-8 on purpose)."""
+    first = path.read_bytes().split(b"\n", 1)[0].decode("utf-8")
+    assert first.startswith("# expect: "), path
+    return first[len("# expect: "):]
+
+
 def test_bad_corpus_is_large_and_distinct():
-    assert len(BAD_FILES) >= 20
-    expects = [f.read_text().splitlines()[0] for f in BAD_FILES]
-    assert all(e.startswith("# expect: ") for e in expects)
+    assert len(BAD_FILES) >= 60
+    expects = [_expected(f) for f in BAD_FILES]
     assert len(set(expects)) == len(expects)
 
 
 @pytest.mark.parametrize("path", BAD_FILES, ids=lambda p: p.stem)
-def test_bad_config_rejected_by_cli(path, tmp_path, monkeypatch):
-    """Each bad file: exit code 2, one message containing the expected fragment, nothing written."""
-    expected = path.read_text().splitlines()[0][len("# expect: "):]
+@pytest.mark.parametrize("command", ["validate", "simulate"])
+def test_bad_config_rejected_by_cli(path, command, tmp_path, monkeypatch):
+    """Each bad file: exit code 2, one line on stderr containing the expected fragment (the
+    key or the file, the value, what is allowed), no traceback, nothing written."""
+    expected = _expected(path)
     monkeypatch.chdir(tmp_path)
-    result = CliRunner().invoke(cli, ["simulate", str(path)])
+    result = CliRunner().invoke(cli, [command, str(path)])
     assert result.exit_code == 2, result.output
-    assert expected in result.output, result.output
-    assert "Traceback" not in result.output
+    assert result.stdout == ""
+    lines = result.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("fcsweep: "), result.stderr
+    assert expected in lines[0], lines[0]
+    assert "Traceback" not in result.output and isinstance(result.exception, SystemExit)
     assert os.listdir(tmp_path) == []

@@ -69,8 +69,9 @@ def save_checkpoint(
     fsync_dir(path.parent)
 
 
-def load_checkpoint(path) -> dict[str, Any] | None:
-    """Read a checkpoint; ``None`` if it is missing or unreadable.
+def load_checkpoint(path, keys=None) -> dict[str, Any] | None:
+    """Read a checkpoint (only the entries ``keys`` if given); ``None`` if it is missing or
+    unreadable.
 
     0-d arrays come back as Python scalars (``int``, ``float``, ``str``).
     """
@@ -79,7 +80,8 @@ def load_checkpoint(path) -> dict[str, Any] | None:
         return None
     try:
         with np.load(path, allow_pickle=False) as z:
-            return {k: (z[k].item() if z[k].ndim == 0 else z[k]) for k in z.files}
+            names = z.files if keys is None else [k for k in keys if k in z.files]
+            return {k: (z[k].item() if z[k].ndim == 0 else z[k]) for k in names}
     except (OSError, ValueError, zipfile.BadZipFile, EOFError, KeyError):
         return None
 

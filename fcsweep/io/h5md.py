@@ -17,13 +17,21 @@ open-append-close step (normally at a checkpoint), so a process killed at an arb
 moment almost always leaves a cleanly closed file, and the checkpoint records how many of
 its frames are valid.  HDF5's own file locking is switched off (``locking=False``): runs
 are protected by :mod:`fcsweep.io.locks`, and HDF5 locks fail on some network file systems.
+
+Every session that modifies an existing file (append, truncate, attributes) is announced
+in ``<file>.seq``, a counter that is odd while the session runs (:func:`write_count`): a
+reader that finds the same even count before and after its read knows no writer touched
+the file meanwhile.  Without it a reader can get a stale chunk index from an open during
+an append and read, with valid checksums, another frame's chunk in the place of its own.
 """
 
 from __future__ import annotations
 
+import contextlib
 import getpass
 import json
 import os
+from pathlib import Path
 from typing import Any, Callable, Mapping, Sequence
 
 import h5py
@@ -51,6 +59,8 @@ __all__ = [
     "fsync_path",
     "verify_trajectory",
     "repack",
+    "write_count",
+    "seq_path",
 ]
 
 #: Frames read at a time while verifying checksums (bounded memory for big files).
@@ -245,6 +255,38 @@ def _series(f: h5py.File) -> dict[str, h5py.Group]:
     return out
 
 
+def seq_path(path) -> Path:
+    """The write counter beside a trajectory file (``<file>.seq``)."""
+    return Path(f"{os.fspath(path)}.seq")
+
+
+def write_count(path) -> int:
+    """Modifying sessions begun on ``path`` so far (0 if none), odd while one runs."""
+    try:
+        return int(seq_path(path).read_text())
+    except (OSError, ValueError):
+        return 0
+
+
+def _put_count(path, n: int) -> None:
+    seq = seq_path(path)
+    tmp = seq.with_name(f".{seq.name}.{os.getpid()}.tmp")
+    tmp.write_text(str(n))
+    os.replace(tmp, seq)  # readers see the old count or the new one
+
+
+@contextlib.contextmanager
+def _modifying(path):
+    """Announce a writing session to live readers: odd count during, next even after."""
+    n = write_count(path)
+    n += 1 if n % 2 == 0 else 2  # a writer that died mid-session left it odd
+    _put_count(path, n)
+    try:
+        yield
+    finally:
+        _put_count(path, n + 1)
+
+
 def frame_count(path) -> int:
     """Number of frames in a trajectory (length of the position time series)."""
     with open_h5(path, "r") as f:
@@ -275,7 +317,7 @@ def append_frames(
     int
         Frame count after the append.
     """
-    with open_h5(path, "r+") as f:
+    with _modifying(path), open_h5(path, "r+") as f:
         groups = _series(f)
         datasets = _datasets(f)
         n0 = groups["position"]["step"].shape[0]
@@ -303,7 +345,7 @@ def append_frames(
 
 def truncate_frames(path, n: int) -> None:
     """Shrink every time series to its first ``n`` frames (frames after a checkpoint)."""
-    with open_h5(path, "r+") as f:
+    with _modifying(path), open_h5(path, "r+") as f:
         for ds in _datasets(f):
             if ds.shape[0] != n:
                 ds.resize(n, axis=0)
@@ -312,7 +354,7 @@ def truncate_frames(path, n: int) -> None:
 
 def set_attrs(path, group: str, attrs: Mapping[str, Any]) -> None:
     """Set attributes of one group (e.g. ``/parameters`` ``complete = 1``)."""
-    with open_h5(path, "r+") as f:
+    with _modifying(path), open_h5(path, "r+") as f:
         g = f.require_group(group)
         for k, v in attrs.items():
             g.attrs[k] = _attr_value(v)

@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from fcsweep.io import schema
-from fcsweep.io.checkpoint import load_checkpoint, split_meta
+from fcsweep.io.checkpoint import META_PREFIX, load_checkpoint, split_meta
 from fcsweep.io.h5md import verify_trajectory
 from fcsweep.io.locks import DEFAULT_STALE_AFTER, RunLock, lock_info, lock_is_stale
 from fcsweep.io.status import read_status, write_status
@@ -144,7 +144,7 @@ class RunDirectory:
     def committed_frames(self) -> int:
         """Frames of a running run that a live reader may use: those the last checkpoint
         covers (later frames of ``trajectory.h5.partial`` may be mid-append)."""
-        ck = load_checkpoint(self.checkpoint)
+        ck = load_checkpoint(self.checkpoint, keys=[META_PREFIX + "frames"])  # not the engine state
         if ck is None:
             return 0
         return int(split_meta(ck)[1].get("frames", 0))

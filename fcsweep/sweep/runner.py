@@ -82,6 +82,7 @@ from fcsweep.io.h5md import (
     frame_count,
     read_parameters,
     repack,
+    seq_path,
     set_attrs,
     truncate_frames,
     verify_trajectory,
@@ -672,6 +673,7 @@ def _compute(cfg, spec, rd: RunDirectory, prev: dict, progress, force: bool, t0:
     repack(partial, packed)
     os.replace(packed, traj)
     partial.unlink()
+    seq_path(partial).unlink(missing_ok=True)  # live readers' write counter (io.h5md)
     fsync_dir(rd.path)
     _hook("finalize")
     rd.mark_done(reason=reason, steps_done=done, projections=projections, stop_reason=stop_reason,

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import errno
 import os
+import tempfile
 from pathlib import Path
 from typing import Sequence
 
@@ -18,19 +19,25 @@ __all__ = ["check_space", "check_output_dir"]
 
 
 def check_output_dir(output) -> None:
-    """Raise ``OSError`` unless ``output`` exists as a writable directory or can be created
-    (its nearest existing ancestor is a writable directory)."""
+    """Raise ``OSError`` unless ``output`` exists as a writable directory or can be created:
+    its nearest existing ancestor is a directory in which a directory can be made (tried
+    with a temporary directory, removed at once: permission bits do not stop root, and
+    read-only mounts or /proc refuse only the real thing)."""
     p = Path(output).absolute()
     probe = p
-    while not probe.exists():
-        if probe.parent == probe:
-            break
-        probe = probe.parent
-    if probe.exists() and not probe.is_dir():
-        raise OSError(errno.ENOTDIR, f"output directory {str(output)!r} cannot be created: {probe} is a file")
-    if not os.access(probe, os.W_OK | os.X_OK):
-        raise OSError(errno.EACCES, f"output directory {str(output)!r} cannot be created or written: "
-                                    f"no write permission in {probe}")
+    cannot = f"output directory {str(output)!r} cannot be created"
+    try:
+        while not probe.exists() and probe.parent != probe:
+            probe = probe.parent
+        if not probe.is_dir():
+            raise OSError(errno.ENOTDIR, f"{cannot}: {probe} is not a directory")
+        if not os.access(probe, os.W_OK | os.X_OK):
+            raise OSError(errno.EACCES, f"{cannot} or written: no write permission in {probe}")
+        os.rmdir(tempfile.mkdtemp(prefix=".fcsweep-probe-", dir=probe))
+    except OSError as exc:
+        if exc.filename is None and str(exc.strerror).startswith(cannot):
+            raise
+        raise OSError(exc.errno, f"{cannot} in {probe}: {exc.strerror or exc}") from None
 
 
 def check_space(cfg: SweepConfig, specs: Sequence[RunSpec]) -> str | None:
