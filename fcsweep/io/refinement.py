@@ -35,7 +35,7 @@ def read_rounds(output) -> list[dict[str, Any]]:
     path = Path(output) / REFINEMENT_FILE
     try:
         text = path.read_text()
-    except FileNotFoundError:
+    except (FileNotFoundError, NotADirectoryError):  # no file, or no output directory (yet)
         return []
     except OSError as exc:
         raise RefinementError(f"cannot read {path}: {exc.strerror}") from None
