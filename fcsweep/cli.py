@@ -49,7 +49,7 @@ def _load(config: str | None, output: str | None = None, *, to_run: bool = False
 
 
 #: Order of the commands in ``--help``: the order of the work, then the helpers.
-COMMAND_ORDER = ("validate", "bench", "simulate", "status", "analyze", "aggregate", "plot", "movie",
+COMMAND_ORDER = ("validate", "bench", "simulate", "status", "analyze", "aggregate", "plot", "refine", "movie",
                  "list-runs", "compile")
 
 
