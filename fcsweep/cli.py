@@ -282,7 +282,7 @@ def _dry_run(cfg, specs, src, out_dir, processes, force, retry_failed, stale_aft
         click.echo(f"{p.spec.index:>4}  {p.spec.run_id:12}  {p.action:8}  {p.from_step:>9}  {p.steps_left:>9}  "
                    f"{est:>9}  {p.spec.label()}" + (f"  ({p.note})" if p.note else ""))
     n = {a: sum(p.action == a for p in plans) for a in ACTIONS}
-    click.echo(", ".join(f"{n[a]} to {a}" if a in ("start", "resume", "skip") else f"{n[a]} {a}"
+    click.echo(", ".join(f"{n[a]} to {a}" if a in ("start", "resume", "extend", "skip") else f"{n[a]} {a}"
                          for a in ACTIONS if n[a] or a in ("start", "resume", "skip")))
     if work:
         cpu = STARTUP_CPU_S + sum(c for c, _ in costs)

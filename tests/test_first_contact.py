@@ -80,16 +80,24 @@ def test_dry_run_writes_nothing_and_says_what_would_happen(done, tmp_path):
     assert sorted(p.name for p in done.rglob("*")) == before
 
 
-def test_changed_run_length_is_advised_force_not_retry_failed(done, tmp_path):
+def test_changed_run_length_extends_and_changed_sampling_is_advised_force(done, tmp_path):
+    """More steps: the dry run and status say the done runs will be extended. Another
+    sample_every: refused, with --force (never --retry-failed) as the advice."""
     longer = tmp_path / "longer.yaml"
     longer.write_text(SMOKE.read_text().replace("steps: 2000", "steps: 4000"))
     r = invoke("simulate", longer, "-o", done, "--dry-run")
-    assert r.exit_code == 0 and "4 blocked" in r.output and "steps 2000 -> 4000" in r.output, r.output
-    assert "--force" in r.output and "--retry-failed" not in r.output
+    assert r.exit_code == 0 and "4 to extend" in r.output and "to 4000 steps" in r.output, r.output
     r = invoke("status", longer, "-o", done)
-    assert "computed with other run settings (steps 2000 -> 4000)" in r.output
+    assert "will be extended: to 4000 steps" in r.output, r.output
+    resampled = tmp_path / "resampled.yaml"
+    resampled.write_text(SMOKE.read_text().replace("sample_every: 50", "sample_every: 100"))
+    r = invoke("simulate", resampled, "-o", done, "--dry-run")
+    assert r.exit_code == 0 and "4 blocked" in r.output and "sample_every 50 -> 100" in r.output, r.output
     assert "--force" in r.output and "--retry-failed" not in r.output
-    r = invoke("simulate", longer, "-o", done, "-q")
+    r = invoke("status", resampled, "-o", done)
+    assert "computed with other run settings (sample_every 50 -> 100)" in r.output
+    assert "--force" in r.output and "--retry-failed" not in r.output
+    r = invoke("simulate", resampled, "-o", done, "-q")
     assert r.exit_code == 1
     assert "--force" in r.output and "--retry-failed" not in r.output
 

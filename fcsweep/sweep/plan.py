@@ -1,8 +1,8 @@
 """What ``fcsweep simulate`` would do, without doing it (``--dry-run``).
 
 :func:`plan_runs` reads the status, checkpoint and lock of every selected run and says,
-for each, whether the next ``simulate`` starts it, resumes it (from which step), skips
-it, or cannot touch it (held by another process, failed earlier, or computed with other
+for each, whether the next ``simulate`` starts it, resumes it (from which step), extends
+it (done, but wanted longer), skips it, or cannot touch it (held by another process, failed earlier, or computed with other
 run settings), with the steps left.  It reads files only; nothing is written.
 """
 
@@ -15,15 +15,17 @@ from fcsweep.io import schema
 from fcsweep.io.checkpoint import load_checkpoint, split_meta
 from fcsweep.io.locks import DEFAULT_STALE_AFTER, lock_info, lock_is_stale
 from fcsweep.io.status import read_status
+from fcsweep.sweep.length import extension_of
 from fcsweep.sweep.runner import fingerprint_of
 from fcsweep.sweep.status import settings_change
 
 __all__ = ["PlannedRun", "plan_runs", "ACTIONS"]
 
-#: What the next ``simulate`` does with a run.  ``blocked``: done or checkpointed with
+#: What the next ``simulate`` does with a run.  ``extend``: done, but the config now wants
+#: it longer (it continues from its final checkpoint); ``blocked``: done or checkpointed with
 #: other run settings (``--force`` recomputes); ``failed``: failed earlier and not retried
 #: without ``--retry-failed``; ``locked``: another live process holds it.
-ACTIONS = ("start", "resume", "skip", "locked", "failed", "blocked")
+ACTIONS = ("start", "resume", "extend", "skip", "locked", "failed", "blocked")
 
 
 @dataclass(frozen=True)
@@ -55,6 +57,10 @@ def _plan_one(cfg: SweepConfig, spec: RunSpec, force: bool, retry_failed: bool, 
             return PlannedRun(spec, "blocked", 0, 0,
                               f"computed with other run settings ({change}): --force recomputes it, "
                               "or use another output directory")
+        more = extension_of(cfg.run, st)
+        if more:
+            done = int(st.get("steps_done", 0) or 0)
+            return PlannedRun(spec, "extend", done, max(steps - done, 0), more)
         return PlannedRun(spec, "skip", steps, 0, "already done")
     if state == schema.FAILED and not (retry_failed or force):
         return PlannedRun(spec, "failed", 0, 0, f"failed earlier ({st.get('reason', '')}); --retry-failed reruns it")
