@@ -2,8 +2,8 @@
 
 :func:`plan_runs` reads the status, checkpoint and lock of every selected run and says,
 for each, whether the next ``simulate`` starts it, resumes it (from which step), extends
-it (done, but wanted longer), skips it, or cannot touch it (held by another process, failed earlier, or computed with other
-run settings), with the steps left.  It reads files only; nothing is written.
+it (done, but wanted longer), skips it, or cannot touch it (held by another process,
+failed earlier, or computed with other run settings), with the steps left.  It reads files only; nothing is written.
 """
 
 from __future__ import annotations
