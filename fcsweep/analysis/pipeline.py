@@ -116,8 +116,21 @@ def settings_with(overrides=None, *, transient=None) -> dict:
 
 # ------------------------------------------------------------------ one run: compute
 
-def compute_observables(traj, settings: dict) -> tuple[dict, dict, dict]:
+def compute_observables(traj, settings: dict, *, curves: bool = True,
+                        psi6: bool = True) -> tuple[dict, dict, dict]:
     """All observables of one opened trajectory.
+
+    Parameters
+    ----------
+    traj : Trajectory
+        An opened trajectory (:func:`fcsweep.analysis.trajectory.open_trajectory`).
+    settings : dict
+        Analysis settings (:func:`settings_with`).
+    curves : bool
+        Compute the curves (MSD, G6, G_r).  The in-run check of ``run.until`` leaves them
+        out: no label depends on them.
+    psi6 : bool
+        Compute |Psi6| (a second Voronoi pass over the structure frames); NaN otherwise.
 
     Returns
     -------
@@ -183,10 +196,10 @@ def compute_observables(traj, settings: dict) -> tuple[dict, dict, dict]:
     cv["cluster_size_distribution"] = (np.arange(1, N + 1), counts.astype(float))
 
     # --- hexatic order and correlations
-    cf = set(_evenly(vf, int(settings["correlation_frames"])).tolist())
+    cf = set(_evenly(vf, int(settings["correlation_frames"])).tolist()) if curves else set()
     mods, g6s, grs = [], [], []
     r = dxs = None
-    for f, P in zip(vf, pos):
+    for f, P in zip(vf, pos) if (psi6 or curves) else ():  # G6 and G_r need Psi6 too
         vn = voronoi.voronoi_neighbors(P, boxr)
         ps = order.psi6(P, boxr, vn.nlist)
         mod, ang = order.global_psi6(ps)
@@ -196,12 +209,16 @@ def compute_observables(traj, settings: dict) -> tuple[dict, dict, dict]:
             dxs, gr = order.gr_cut(P, boxr, ang, dx=float(settings["gr_dx"]))
             g6s.append(g)
             grs.append(gr)
-    ta = time_average(np.asarray(mods))
-    sc["psi6"], sc["psi6_err"] = ta.mean, ta.err
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # bins without pairs in every frame
-        cv["G6"] = (r, np.nanmean(np.asarray(g6s), axis=0) if r.size else r.copy())
-        cv["Gr"] = (dxs, np.mean(np.asarray(grs), axis=0))
+    if mods:
+        ta = time_average(np.asarray(mods))
+        sc["psi6"], sc["psi6_err"] = ta.mean, ta.err
+    else:
+        sc["psi6"] = sc["psi6_err"] = np.nan
+    if curves:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # bins without pairs in every frame
+            cv["G6"] = (r, np.nanmean(np.asarray(g6s), axis=0) if r.size else r.copy())
+            cv["Gr"] = (dxs, np.mean(np.asarray(grs), axis=0))
 
     # --- MSD (all frames, for the curve) and D_eff (from the equilibrated frames)
     eq = frames[frames >= max(starts)]
@@ -210,9 +227,10 @@ def compute_observables(traj, settings: dict) -> tuple[dict, dict, dict]:
     x = traj.unwrapped(frames)
     if not np.all(np.isfinite(x)):
         raise AnalysisError(f"{traj.path}: non-finite positions after the transient")
-    msd, _ = msd_curve(x, subtract_drift=bool(settings["subtract_drift"]), n_blocks=1)
-    lags = log_lag_indices(frames.size, int(settings["msd_lags"]))
-    cv["msd"] = (time[lags], msd[lags])
+    if curves:
+        msd, _ = msd_curve(x, subtract_drift=bool(settings["subtract_drift"]), n_blocks=1)
+        lags = log_lag_indices(frames.size, int(settings["msd_lags"]))
+        cv["msd"] = (time[lags], msd[lags])
     x = x[eq - frames[0]]
     est = diffusion.estimate_diffusion(
         traj.time[eq] - traj.time[eq[0]], x, Dr=Dr, max_time_blocks=int(settings["max_time_blocks"]),

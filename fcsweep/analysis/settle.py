@@ -107,7 +107,8 @@ def assess_trajectory(path, *, transient: float, confidence: float,
 
         freud.parallel.set_num_threads(int(threads))
     try:
-        scalars, _, _ = compute_observables(open_trajectory(path), settings_with(transient=transient))
+        scalars, _, _ = compute_observables(open_trajectory(path), settings_with(transient=transient),
+                                            curves=False, psi6="psi6" in (rel_error or {}))
     except (AnalysisError, TrajectoryError) as exc:
         return Verdict(False, (f"not analysable yet: {exc}",))
     return judge(scalars, confidence=confidence, rel_error=rel_error)
