@@ -8,6 +8,7 @@ import os
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
@@ -204,3 +205,25 @@ def test_bench_range_with_until():
     assert first_stop(run) == 6000  # first check step at or past min_steps
     row = BenchRow({"N": 36}, 2, 2 * 36 * 20000.0, 1e6, True, cell_steps_min=2 * 36 * 6000.0)
     assert row.cpu_seconds_min == pytest.approx(0.3 * row.cpu_seconds)
+
+
+def test_in_run_check_sees_the_labels_of_the_full_analysis(extended):
+    """The check leaves out the curves and |Psi6| for speed; every number a label or a
+    ``rel_error`` target can depend on must be the one ``fcsweep analyze`` computes."""
+    from fcsweep.analysis.pipeline import compute_observables, settings_with
+    from fcsweep.analysis.settle import assess_trajectory
+    from fcsweep.analysis.trajectory import open_trajectory
+
+    _, long, _, _, _, _ = extended
+    path = long.run_dir(long.runs()[1].run_id) / "trajectory.h5"
+    s = settings_with(transient=0.2)
+    full, curves, _ = compute_observables(open_trajectory(path), s)
+    lean, none, _ = compute_observables(open_trajectory(path), s, curves=False, psi6=False)
+    assert set(curves) >= {"msd", "G6", "Gr"} and not set(none) & {"msd", "G6", "Gr"}
+    assert np.isnan(lean["psi6"]) and np.isfinite(full["psi6"])
+    for k, v in full.items():
+        if k not in ("psi6", "psi6_err"):
+            assert lean[k] == v or (isinstance(v, float) and np.isnan(v) and np.isnan(lean[k])), k
+    v = assess_trajectory(path, transient=0.2, confidence=0.5, rel_error={"psi6": 10.0}, threads=1)
+    assert v.values["phase"] == full["phase"] and v.values["psi6_rel_error"] == pytest.approx(
+        abs(full["psi6_err"] / full["psi6"]))
