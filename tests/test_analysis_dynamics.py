@@ -159,3 +159,18 @@ def test_shape_indices_in_blocks_match_each_cell_alone():
     one = np.array([shape_index(a[i, j], b[i, j], points=4096) for i, j in [(0, 0), (2, 55), (6, 99)]])
     assert q[[0, 2, 6], [0, 55, 99]] == pytest.approx(one, rel=1e-7)  # 1024 vs 4096 points at the bound
     assert np.array_equal(q.ravel(), shape_indices(a.reshape(-1, 5), b.reshape(-1, 5), chunk=10**6))
+
+
+@pytest.mark.parametrize("s0", [0.05, 0.19, 0.2, 0.34, 0.35])
+def test_fewer_points_for_small_shapes_stay_at_round_off(s0):
+    # random and single-mode shapes at amplitude sum s0, up to each tier's edge
+    from fcsweep.model.shape import amplitude_sum, shape_index
+
+    rng = np.random.default_rng(11)
+    a, b = rng.normal(size=(2, 500, 5))
+    for k in range(5):
+        a[k * 20:(k + 1) * 20] = np.eye(5)[k]
+        b[k * 20:(k + 1) * 20] = 0.0
+    f = s0 / amplitude_sum(a, b)
+    a, b = a * f[:, None], b * f[:, None]
+    assert np.abs(shape_indices(a, b) - shape_index(a, b, points=4096)).max() < 5e-14
