@@ -38,7 +38,9 @@ def _labels(cfg):
         out[key] = {"phase": int(ds["phase_point"].sel(sel)), "perc": int(ds["percolated_point"].sel(sel)),
                     "pc": float(ds["phase_point_confidence"].sel(sel)),
                     "cc": float(ds["percolated_point_confidence"].sel(sel)),
-                    "steps": int(st.get("steps_done", 0)), "stop": st.get("stop_reason", "")}
+                    "steps": int(st.get("steps_done", 0)), "stop": st.get("stop_reason", ""),
+                    "cell_steps": float(st.get("cell_steps_computed", 0)), "cpu": float(st.get("cpu_seconds", 0)),
+                    "check_cpu": float(st.get("check_cpu_seconds", 0))}
     return out, ds.attrs
 
 
@@ -93,13 +95,21 @@ def main() -> None:
         for line in _boundaries(lab, axes) or ["none"]:
             print(f"- {line}")
         print()
-    cs_f, cs_a = float(fa["total_cell_steps_computed"]), float(aa["total_cell_steps_computed"])
-    cpu_f, cpu_a = float(fa["total_cpu_seconds"]), float(aa["total_cpu_seconds"])
-    print("| mapping | runs | cell-steps integrated | CPU seconds (checks) |")
+    print("| mapping | runs | cell-steps integrated | CPU seconds (of which checks) |")
     print("|---|---|---|---|")
-    print(f"| fixed length | {len(fixed)} | {cs_f:.3g} | {cpu_f:.0f} |")
-    print(f"| until + refine | {len(adaptive)} | {cs_a:.3g} ({cs_a / cs_f:.2f} of fixed) | {cpu_a:.0f} "
-          f"({float(aa['total_check_cpu_seconds']):.0f}; {cpu_a / cpu_f:.2f} of fixed) |")
+    rows = [("fixed length, whole grid", list(fixed.values())),
+            ("fixed length, only the points the adaptive mapping ran",
+             [fixed[p] for p in adaptive if p in fixed]),
+            ("coarse grid + until + refine", list(adaptive.values()))]
+    cs_f = sum(r["cell_steps"] for r in rows[0][1])
+    cpu_f = sum(r["cpu"] for r in rows[0][1])
+    for title, runs in rows:
+        cs, cpu, chk = (sum(r[k] for r in runs) for k in ("cell_steps", "cpu", "check_cpu"))
+        print(f"| {title} | {len(runs)} | {cs:.3g} ({cs / cs_f:.2f}) | {cpu:.0f} ({chk:.0f}; {cpu / cpu_f:.2f}) |")
+    print("\n(ratios to the whole fixed grid in parentheses; CPU is process CPU of the runs, "
+          "one numba thread, this machine; the same sums as the `total_*` attributes of "
+          f"phase_diagram.nc: {float(fa['total_cell_steps_computed']):.3g} and "
+          f"{float(aa['total_cell_steps_computed']):.3g} cell-steps)")
     if args.figure:
         _figure(fixed, adaptive, axes, args.figure)
 

@@ -117,6 +117,23 @@ def test_caption_names_system_size_run_length_and_quadrature():
     cap = plots.caption(synthetic_dataset())
     assert "N = 256" in cap and "1000 time units (200,000 steps)" in cap and "binary quadrature" in cap
     assert "N = 64" in plots.caption(synthetic_dataset(), {"N": 64})
+    ds = synthetic_dataset()
+    cfg = json.loads(ds.attrs["config"])
+    cfg["run"]["until"] = {"check_every": 1000, "min_steps": 1000, "confidence": 0.9}
+    ds.attrs["config"] = json.dumps(cfg)
+    assert "runs of up to 1000 time units (200,000 steps), stopped when settled" in plots.caption(ds)
+
+
+def test_refined_log_grid_labels_do_not_overlap():
+    # nine log-spaced eta values (two refinement rounds of 0.01, 0.0316, 0.1): every
+    # grid value gets a tick, at most six get a label, in three digits
+    etas = tuple(np.round(np.logspace(-2, -1, 9), 12))
+    ax = plots.phase_diagram(synthetic_dataset(etas=etas)).axes[0]
+    labels = [t.get_text() for t in ax.xaxis.get_ticklabels()]
+    assert np.allclose(ax.get_xticks(), etas) and len(labels) == 9
+    shown = [t for t in labels if t]
+    assert 3 <= len(shown) <= 6 and all(len(t) <= 6 for t in shown) and shown[0] == "0.01"
+    matplotlib.pyplot.close("all")
 
 
 def test_log_axes_for_log_grids_and_for_a_decade_apart():

@@ -208,7 +208,8 @@ def caption(ds, select=None, width: int | None = None) -> str:
     dt = _setting(ds, "dt", select, cfg)
     if steps:
         length = f"{steps * dt:g} time units ({steps:,} steps)" if dt else f"{steps:,} steps"
-        parts.append(f"runs of {length}")
+        until = cfg.get("run", {}).get("until")
+        parts.append(f"runs of up to {length}, stopped when settled" if until else f"runs of {length}")
     quad = _setting(ds, "quadrature", select, cfg)
     if quad:
         parts.append(f"{quad} quadrature")
@@ -252,10 +253,14 @@ def _panels(n, width=3.2, height=2.7, sharey=True):
     return fig, flat[:n]
 
 
-def _grid_ticks(axis, values):
-    """Ticks at the grid values of a log axis: decades alone rarely label a 0.01-0.1 sweep."""
+def _grid_ticks(axis, values, most=6):
+    """Ticks at the grid values of a log axis (decades alone rarely label a 0.01-0.1
+    sweep), in three digits; past ``most`` values only every k-th one is labelled, so
+    that refined grids do not print labels on top of each other."""
+    values = np.asarray(values, dtype=float)
+    step = int(np.ceil(values.size / most))
     axis.set_ticks(values)
-    axis.set_ticklabels([f"{v:g}" for v in values])
+    axis.set_ticklabels([f"{v:.3g}" if i % step == 0 else "" for i, v in enumerate(values)])
     axis.set_minor_formatter(NullFormatter())
 
 
