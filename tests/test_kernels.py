@@ -7,7 +7,7 @@ import pytest
 
 from conftest import dense_config
 from fcsweep.kernels.api import kernel_rates
-from fcsweep.kernels.contour import atan2_fast
+from fcsweep.kernels.geometry import atan2_fast
 from fcsweep.model.rates import rates
 
 KEYS = ("dpos", "dtheta", "da", "db")

@@ -361,7 +361,7 @@ def arc_pair(i, j, dx, dy, k0, nseg, a, b, geo, R, px, py, R0, cphi, sphi, tb, t
     ``tb[tid, 6, m]`` and ``tb[tid, 7, m]`` hold the gap and h * dg/dphi at window point m
     (contour index k0 + m, modulo K); segments m = 0 .. nseg - 1 join points m, m + 1.
     ``R``, ``px``, ``py`` are the sampled radii and contour points of
-    :func:`fcsweep.kernels.contour.geometry`.  Adds i's arc integrals to ``own[orow]``
+    :func:`fcsweep.kernels.geometry.geometry`.  Adds i's arc integrals to ``own[orow]``
     and j's to ``other[xrow]``.  (No boolean switches: numba compiles a function once
     per combination of literal arguments, and this one takes a minute.)
     """

@@ -5,7 +5,7 @@ LLVM fuse multiply-adds.  ``reassoc`` stays off: with it, LLVM vectorised the pe
 sums in an order that differed between a kernel compiled in the running process and the
 same kernel loaded from numba's disk cache, so rates differed in the last bit and a
 resumed run drifted away from an uninterrupted one.  Sums that matter for speed are
-written with a fixed order instead (:func:`fcsweep.kernels.contour.cell_rates`).
+written with a fixed order instead (:func:`fcsweep.kernels.rates.cell_rates`).
 ``nnan``/``ninf`` stay off so that the finiteness checks of the step remain valid.
 ``cache=True`` writes compiled code next to the sources, or to ``NUMBA_CACHE_DIR`` when
 set (read-only installs).

@@ -17,8 +17,10 @@ import numpy as np
 from numba import njit, prange
 
 from .celllist import build_cell_list, grid_shape
-from .contour import QUAD_ARC, all_rates, geometry
+from .geometry import geometry
 from .options import NJIT
+from .pairs import QUAD_ARC
+from .rates import all_rates
 from .verlet import build_verlet, needs_rebuild
 
 #: Status codes returned by :func:`run_chunk`.

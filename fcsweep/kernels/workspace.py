@@ -7,7 +7,8 @@ import math
 import numba
 import numpy as np
 
-from .contour import LANES, QUADRATURE_CODES, mode_tables
+from .geometry import LANES, mode_tables
+from .pairs import QUADRATURE_CODES
 
 
 class Workspace:
