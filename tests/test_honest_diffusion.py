@@ -109,3 +109,32 @@ def test_cage_relaxing_slower_than_the_persistence_time_is_not_called_fluid():
     lab = classify_phase(e.D / D0, e.D_err / D0, 3.6, 0.001, diffusion_ok=e.diffusive,
                          diffusion_note="MSD not diffusive")
     assert lab.code == PHASE_UNDETERMINED
+
+
+def test_single_block_is_compared_with_half_blocks():
+    """A span of one 8/Dr block has no time scatter; D_long is then the estimate from two
+    half-length blocks, which for free ABPs agrees with D (the check passes) and has a
+    measurable error."""
+    e = _abp_estimate(0.0, 6)
+    assert e.n_time_blocks == 1 and e.long_enough
+    assert np.isfinite(e.D_long) and np.isfinite(e.D_long_err) and e.D_long_err > 0
+    assert abs(e.D_long - e.D) < 3 * np.hypot(e.D_err, e.D_long_err)
+    assert e.diffusive
+
+
+def test_label_withdrawn_when_block_lengths_disagree_across_the_threshold():
+    """The regenerated D_r calibration point (eta = 0.08, v0 = 0.03, 1000 time units): one
+    block reads fluid at P = 0.889, the half blocks solid at P = 0.96 -> undetermined with
+    the reason; estimates on the same side, or one of them undecided, keep the label."""
+    from fcsweep.analysis.pipeline import _block_length_conflict
+
+    conf = 0.8413
+    calib = {"D_eff": 1.39e-3, "D_eff_err": 3.2e-4, "D_eff_long": 1.7e-4, "D_eff_long_err": 4.7e-4}
+    why = _block_length_conflict(calib, conf)
+    assert "depends on the block length" in why and "(not solid)" in why and "(solid)" in why
+    same = {"D_eff": 5e-3, "D_eff_err": 5e-4, "D_eff_long": 4e-3, "D_eff_long_err": 8e-4}
+    assert _block_length_conflict(same, conf) == ""
+    undecided = {"D_eff": 1.39e-3, "D_eff_err": 3.2e-4, "D_eff_long": 8e-4, "D_eff_long_err": 4.7e-4}
+    assert _block_length_conflict(undecided, conf) == ""
+    missing = {"D_eff": 1.39e-3, "D_eff_err": 3.2e-4, "D_eff_long": np.nan, "D_eff_long_err": np.nan}
+    assert _block_length_conflict(missing, conf) == ""

@@ -66,7 +66,7 @@ META = {
     "D_eff_err_cells": ("error of D_eff from the scatter of cell subsets within time blocks", "1"),
     "D_eff_late": ("D_eff from the upper half of the MSD fit window (settling check)", "1"),
     "D_eff_late_err": ("1-sigma error of D_eff_late", "1"),
-    "D_eff_long": ("D_eff from one block spanning the run (settling check)", "1"),
+    "D_eff_long": ("D_eff at another block length: the whole run, or half blocks (settling check)", "1"),
     "D_eff_long_err": ("1-sigma error of D_eff_long", "1"),
     "msd_diffusive": ("1 if the MSD slope has settled within the run, else 0", "1"),
     "msd_long_enough": ("1 if a time block spans at least min_block_persistence / Dr, else 0", "1"),

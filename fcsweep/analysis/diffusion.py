@@ -43,9 +43,11 @@ class DiffusionEstimate:
     D_late, D_late_err : float
         The same estimate from the upper half of the fit window only.
     D_long, D_long_err : float
-        The same estimate from one block spanning the whole run (lags up to half the
-        run; NaN with one block). Its error is the larger of its cell-block error and
-        ``sqrt(B) D_err``: one block has no time scatter to measure.
+        The same estimate at another block length: with ``B >= 2`` blocks, one block
+        spanning the whole run (lags up to half the run; its error is the larger of its
+        cell-block error and ``sqrt(B) D_err``: one block has no time scatter to
+        measure); with one block, two blocks of half its length (their time and cell
+        scatter). NaN when the run is too short for either.
     t_min, t_max : float
         Fit window (lags) within each block.
     block_span : float
@@ -131,11 +133,12 @@ def estimate_diffusion(time, unwrapped, *, Dr: float, max_time_blocks: int = 8,
     (which holds collective motion: cells that move together are one sample, not many)
     and the scatter over ``n_cell_blocks`` disjoint cell subsets within the blocks.
 
-    Settling: the same estimate from the upper half of the fit window, and from one block
-    spanning the whole run, must agree with ``D``. A crystal whose cage relaxes more
-    slowly than ``1/Dr`` still has a rising MSD within short blocks; the whole run sees
-    the plateau, the two disagree, and the estimate is flagged not ``diffusive``. A cage
-    slower than half the run cannot be told from diffusion by any window.
+    Settling: the same estimate from the upper half of the fit window, and at another
+    block length (the whole run as one block; half blocks when there is only one), must
+    agree with ``D``. A crystal whose cage relaxes more slowly than ``1/Dr`` still has a
+    rising MSD within short blocks; the whole run sees the plateau, the two disagree, and
+    the estimate is flagged not ``diffusive``. A cage slower than half the run cannot be
+    told from diffusion by any window.
 
     Parameters
     ----------
@@ -175,10 +178,16 @@ def estimate_diffusion(time, unwrapped, *, Dr: float, max_time_blocks: int = 8,
     D, err_t, err_c, Dl, err_late, lo, hi, Lf = main
     err = float(np.nanmax([err_t, err_c]))
     settled = abs(Dl - D) <= max(3.0 * err_late, settle_tol)
-    longer = _blocks(x, h, 1, C, tau_r, fit_start) if B >= 2 else None
     D2, err2 = nan, nan
-    if longer is not None:  # its time scatter is unknown: at least sqrt(B) x that of the mean of B
-        D2, err2 = longer[0], float(np.nanmax([longer[2], np.sqrt(B) * err]))
+    if B >= 2:  # one block over the whole run; its time scatter is unknown: >= sqrt(B) x that of the mean of B
+        other = _blocks(x, h, 1, C, tau_r, fit_start)
+        if other is not None:
+            D2, err2 = other[0], float(np.nanmax([other[2], np.sqrt(B) * err]))
+    else:  # one block: compare with two blocks of half the length (their scatter is measurable)
+        other = _blocks(x, h, 2, C, tau_r, fit_start)
+        if other is not None:
+            D2, err2 = other[0], float(np.nanmax(other[1:3]))
+    if np.isfinite(D2):
         settled = settled and abs(D2 - D) <= max(3.0 * np.hypot(err, err2), settle_tol)
     _, persist = _design(np.arange(lo, hi + 1) * h, tau_r)
     return DiffusionEstimate(D, err, err_t, err_c, Dl, err_late, D2, err2, lo * h, hi * h,

@@ -38,6 +38,7 @@ from pathlib import Path
 
 import h5py
 import numpy as np
+from scipy.stats import norm
 
 from fcsweep import __version__
 from fcsweep.analysis import diffusion, order, shapes, voronoi
@@ -259,8 +260,10 @@ def compute_observables(traj, settings: dict, *, curves: bool = True,
     elif not est.diffusive:
         note = (f"MSD not diffusive within the run: D_eff {sc['D_eff']:.3g} +- {sc['D_eff_err']:.2g}, "
                 f"from the late half of the fit window {sc['D_eff_late']:.3g} +- {sc['D_eff_late_err']:.2g}, "
-                f"from the whole run as one block {sc['D_eff_long']:.3g} +- {sc['D_eff_long_err']:.2g}")
+                f"at another block length {sc['D_eff_long']:.3g} +- {sc['D_eff_long_err']:.2g}")
     conf = float(settings["label_confidence"])
+    if not note:
+        note = _block_length_conflict(sc, conf)
     lab = classify_phase(sc["D_eff"], sc["D_eff_err"], sc["q_mean"], sc["q_mean_err"],
                          diffusion_ok=not note, diffusion_note=note, min_confidence=conf)
     sc.update(phase=float(lab.code), phase_confidence=lab.confidence, phase_reason=lab.reason)
@@ -270,6 +273,29 @@ def compute_observables(traj, settings: dict, *, curves: bool = True,
     extra = {"n_sides_counts": ds["n_sides_counts"], "frames": frames,
              "structure_frames": vf, "shape_frames": sf}
     return sc, cv, extra
+
+
+def _block_length_conflict(sc: dict, confidence: float) -> str:
+    """Reason to withdraw the D_eff side of the phase label, or "".
+
+    ``D_eff_long`` is the same estimate at another block length (the whole run as one
+    block, or two half-length blocks when the run holds only one).  When each of the two
+    puts D_eff on its own side of the solid threshold with at least ``confidence``, the
+    estimate depends on the block length (a cage relaxing on the scale of the run) and
+    neither side is an answer.
+    """
+    def side(d, e):
+        if not (np.isfinite(d) and np.isfinite(e) and e > 0):
+            return None
+        p_solid = float(norm.cdf((diffusion.D_EFF_SOLID - d) / e))
+        return "solid" if p_solid >= confidence else "not solid" if 1.0 - p_solid >= confidence else None
+
+    a = side(sc["D_eff"], sc["D_eff_err"])
+    b = side(sc["D_eff_long"], sc["D_eff_long_err"])
+    if a is None or b is None or a == b:
+        return ""
+    return (f"D_eff depends on the block length: {sc['D_eff']:.3g} +- {sc['D_eff_err']:.2g} ({a}) against "
+            f"{sc['D_eff_long']:.3g} +- {sc['D_eff_long_err']:.2g} at another block length ({b})")
 
 
 # ------------------------------------------------------------------ one run: files
