@@ -138,3 +138,22 @@ def test_label_withdrawn_when_block_lengths_disagree_across_the_threshold():
     assert _block_length_conflict(undecided, conf) == ""
     missing = {"D_eff": 1.39e-3, "D_eff_err": 3.2e-4, "D_eff_long": np.nan, "D_eff_long_err": np.nan}
     assert _block_length_conflict(missing, conf) == ""
+
+
+def test_half_blocks_reading_higher_than_one_block_is_a_cage_approach():
+    """The 3000-time-unit crystal of the D_r calibration (one block after equilibration):
+    the block reads (-1.2 +- 0.25)e-3, its half blocks (1.85 +- 0.8)e-3 -- less diffusion
+    over longer windows, the signature of a cage plateau being reached, so "solid" from
+    the block stands; a block on the fluid side with half blocks far above it may be the
+    same cage seen earlier and is withdrawn.  With two or more blocks the comparison is
+    with the whole run and stays symmetric."""
+    from fcsweep.analysis.pipeline import _block_length_conflict
+
+    conf = 0.8413
+    crystal = {"D_eff": -1.22e-3, "D_eff_err": 2.5e-4, "D_eff_long": 1.85e-3, "D_eff_long_err": 8e-4,
+               "n_time_blocks": 1.0}
+    assert _block_length_conflict(crystal, conf) == ""
+    early = {"D_eff": 3e-3, "D_eff_err": 3e-4, "D_eff_long": 8e-3, "D_eff_long_err": 1e-3, "n_time_blocks": 1.0}
+    assert "falls with the block length" in _block_length_conflict(early, conf)
+    two = dict(crystal, n_time_blocks=2.0)
+    assert "depends on the block length" in _block_length_conflict(two, conf)

@@ -282,7 +282,9 @@ def _block_length_conflict(sc: dict, confidence: float) -> str:
     block, or two half-length blocks when the run holds only one).  When each of the two
     puts D_eff on its own side of the solid threshold with at least ``confidence``, the
     estimate depends on the block length (a cage relaxing on the scale of the run) and
-    neither side is an answer.
+    neither side is an answer.  With one block, half blocks reading significantly higher
+    than the block is the approach to a cage plateau: "solid" from the block stands (the
+    long-time value lies lower still), anything else is withdrawn.
     """
     def side(d, e):
         if not (np.isfinite(d) and np.isfinite(e) and e > 0):
@@ -290,12 +292,17 @@ def _block_length_conflict(sc: dict, confidence: float) -> str:
         p_solid = float(norm.cdf((diffusion.D_EFF_SOLID - d) / e))
         return "solid" if p_solid >= confidence else "not solid" if 1.0 - p_solid >= confidence else None
 
-    a = side(sc["D_eff"], sc["D_eff_err"])
-    b = side(sc["D_eff_long"], sc["D_eff_long_err"])
+    d, e, d2, e2 = sc["D_eff"], sc["D_eff_err"], sc["D_eff_long"], sc["D_eff_long_err"]
+    a, b = side(d, e), side(d2, e2)
+    if sc.get("n_time_blocks") == 1 and np.isfinite(d2) and d2 - d > 3.0 * np.hypot(e, e2):
+        if a == "solid":
+            return ""
+        return (f"D_eff falls with the block length ({d2:.3g} +- {e2:.2g} over half blocks, {d:.3g} +- {e:.2g} "
+                "over the one block): a cage may still be being explored; a longer run decides")
     if a is None or b is None or a == b:
         return ""
-    return (f"D_eff depends on the block length: {sc['D_eff']:.3g} +- {sc['D_eff_err']:.2g} ({a}) against "
-            f"{sc['D_eff_long']:.3g} +- {sc['D_eff_long_err']:.2g} at another block length ({b})")
+    return (f"D_eff depends on the block length: {d:.3g} +- {e:.2g} ({a}) against "
+            f"{d2:.3g} +- {e2:.2g} at another block length ({b})")
 
 
 # ------------------------------------------------------------------ one run: files
