@@ -38,12 +38,12 @@ from pathlib import Path
 
 import h5py
 import numpy as np
-from scipy.stats import norm
 
 from fcsweep import __version__
 from fcsweep.analysis import diffusion, order, shapes, voronoi
 from fcsweep.analysis.msd import log_lag_indices, msd_curve
-from fcsweep.analysis.phase import MIN_CONFIDENCE, classify_percolation, classify_phase
+from fcsweep.analysis.phase import (MIN_CONFIDENCE, PHASE_SOLID, classify_percolation, classify_phase,
+                                    phase_probabilities)
 from fcsweep.analysis.stats import time_average
 from fcsweep.analysis.trajectory import TrajectoryError, open_trajectory
 from fcsweep.io.machine import worker_layout
@@ -289,7 +289,7 @@ def _block_length_conflict(sc: dict, confidence: float) -> str:
     def side(d, e):
         if not (np.isfinite(d) and np.isfinite(e) and e > 0):
             return None
-        p_solid = float(norm.cdf((diffusion.D_EFF_SOLID - d) / e))
+        p_solid = phase_probabilities(d, e, np.nan, np.nan)[PHASE_SOLID]
         return "solid" if p_solid >= confidence else "not solid" if 1.0 - p_solid >= confidence else None
 
     d, e, d2, e2 = sc["D_eff"], sc["D_eff_err"], sc["D_eff_long"], sc["D_eff_long_err"]
