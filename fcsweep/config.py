@@ -56,7 +56,7 @@ from typing import Any, Mapping
 import numpy as np
 import yaml
 
-from fcsweep.model.integrators import DEFAULT_INTEGRATOR, INTEGRATORS
+from fcsweep.model.integrators import DEFAULT_INTEGRATOR, INTEGRATORS, integrator_problem
 from fcsweep.model.rates import QUADRATURES
 from fcsweep.model.shape import contour_points_problem, dt_problem
 
@@ -539,6 +539,7 @@ def check_runnable(cfg: "SweepConfig") -> None:
     - dt within the tension limit of the stiffest shape mode
       (:func:`fcsweep.model.shape.max_stable_dt`);
     - quadrature and contour_points are not swept when every run has rigid discs;
+    - the integrator runs with the quadrature and modes (:func:`fcsweep.model.integrators.integrator_problem`);
     - step length and rotational step (:func:`check_step_sizes`);
     - the largest run fits in this machine's memory (:func:`check_memory`).
 
@@ -559,6 +560,10 @@ def check_runnable(cfg: "SweepConfig") -> None:
         problem = dt_problem(dt, eta, modes, mu_shape, R0)
         if problem:
             raise ConfigError(f"{cfg.source}: {where('dt')}: {problem}")
+    for integrator, quadrature, modes in _grid_or_model(cfg, ("integrator", "quadrature", "modes")):
+        problem = integrator_problem(integrator, quadrature, modes)
+        if problem:
+            raise ConfigError(f"{cfg.source}: {where('integrator')}: {problem}")
     if set(grid.get("modes", (model.get("modes"),))) == {0}:
         for name in ("quadrature", "contour_points"):
             if name in grid:

@@ -25,7 +25,8 @@ from . import __version__
 from .kernels.step import LIST_FULL, NONFINITE, OK, P_DMAX, run_chunk
 from .kernels.api import param_vector
 from .kernels.workspace import quadrature_code, workspace_for
-from .model.integrators import DEFAULT_INTEGRATOR, INTEGRATORS, check_integrator, contact_coefficient
+from .model.integrators import (DEFAULT_INTEGRATOR, INTEGRATORS, contact_coefficient, integrator_problem,
+                                jacobi_sweeps, kappa_floor)
 from .model.lattice import hexagonal_lattice, lattice_box
 from .model.shape import ADMISSIBLE_BOUND, PROJECTION_MARGIN, contour_points_problem, dt_problem
 
@@ -85,7 +86,9 @@ class SimParams:
             if not ok:
                 raise ValueError(f"{name} must be {allowed}; got {getattr(self, name)!r}")
         quadrature_code(self.quadrature)
-        check_integrator(self.integrator)
+        problem = integrator_problem(self.integrator, self.quadrature, self.modes)
+        if problem:
+            raise ValueError(problem)
         for name in ("eta", "v0", "Dr", "dt", "R0", "mu_theta", "mu_shape"):
             if not math.isfinite(getattr(self, name)):
                 raise ValueError(f"{name} must be finite; got {getattr(self, name)!r}")
@@ -138,8 +141,10 @@ class Simulation:
     """Integration of N cells with Euler-Maruyama noise from a PCG64 Generator.
 
     ``params.integrator`` picks the deterministic step (:data:`INTEGRATORS`): ``"euler"``
-    (the paper's explicit step, default) or ``"contact-implicit"`` (each contact's normal
-    relaxation implicit, so contacts do not chatter; :mod:`fcsweep.model.integrators`).
+    (the paper's explicit step, default), ``"contact-implicit"`` (each contact's normal
+    relaxation implicit, so contacts do not chatter) or ``"contact-jacobi"`` (the same
+    with each contact's approach rate, solved by Jacobi sweeps; arc quadrature only);
+    see :mod:`fcsweep.model.integrators`.
 
     Use :meth:`from_lattice` for docs/model.md's initial state, :meth:`advance` to integrate,
     and :meth:`to_checkpoint` / :meth:`from_checkpoint` (or :meth:`save` / :meth:`load`)
@@ -161,6 +166,7 @@ class Simulation:
             mu_shape=params.mu_shape, dt=params.dt, noise_amp=math.sqrt(2.0 * params.Dr * params.dt),
             smax=PROJECTION_MARGIN * ADMISSIBLE_BOUND, dmax=spacing,
             contact=contact_coefficient(params.integrator, params.dt, params.modes, params.R0, params.mu_shape),
+            sweeps=jacobi_sweeps(params.integrator), kappa_floor=kappa_floor(params.integrator),
         )
 
     # ------------------------------------------------------------------ construction

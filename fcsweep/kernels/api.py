@@ -4,27 +4,31 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..model.integrators import KAPPA_FLOOR
+from ..model.integrators import JACOBI_MAX_FACTOR, KAPPA_FLOOR
 from .step import (P_CONTACT, P_DMAX, P_DT, P_ETA, P_KFLOOR, P_LX, P_LY, P_MUS, P_MUT, P_NOISE, P_R0,
-                   P_SKIN, P_SMAX, P_V0, compute_rates)
+                   P_SKIN, P_SMAX, P_SWEEPS, P_LAMMAX, P_V0, compute_rates)
 from .workspace import SKIN, quadrature_code, workspace_for
 
 
 def param_vector(*, box, R0, eta, v0, mu_theta, mu_shape, dt=0.0, noise_amp=0.0, smax=np.inf, dmax=np.inf,
-                 contact=0.0):
+                 contact=0.0, sweeps=0, kappa_floor=KAPPA_FLOOR):
     """Float parameter vector in the layout :func:`fcsweep.kernels.step.run_chunk` reads.
 
     ``contact`` is the contact-implicit coefficient
-    (:func:`fcsweep.model.integrators.contact_coefficient`; 0 for explicit Euler).
+    (:func:`fcsweep.model.integrators.contact_coefficient`; 0 for explicit Euler),
+    ``sweeps`` the Jacobi sweeps of contact-jacobi (0 otherwise) and ``kappa_floor`` the
+    floor of the contact curvature (:func:`fcsweep.model.integrators.kappa_floor`).
     """
-    prm = np.zeros(14)
+    prm = np.zeros(16)
     Lx, Ly = (1.0, 1.0) if box is None else (float(box[0]), float(box[1]))
     prm[P_LX], prm[P_LY], prm[P_R0] = Lx, Ly, R0
     prm[P_ETA], prm[P_V0], prm[P_MUT], prm[P_MUS] = eta, v0, mu_theta, mu_shape
     prm[P_DT], prm[P_NOISE], prm[P_SMAX], prm[P_DMAX] = dt, noise_amp, smax, dmax
     prm[P_SKIN] = SKIN * R0
     prm[P_CONTACT] = contact
-    prm[P_KFLOOR] = KAPPA_FLOOR
+    prm[P_KFLOOR] = kappa_floor
+    prm[P_SWEEPS] = sweeps
+    prm[P_LAMMAX] = JACOBI_MAX_FACTOR
     return prm
 
 
@@ -39,12 +43,14 @@ def wrap_positions(pos, box):
 
 
 def kernel_rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, contour_points=40, quadrature="arc",
-                 mu_theta=1.0, mu_shape=1.0, workspace=None, contact=0.0):
+                 mu_theta=1.0, mu_shape=1.0, workspace=None, contact=0.0, sweeps=0, kappa_floor=KAPPA_FLOOR,
+                 dt=0.0):
     """Deterministic rates computed by the numba kernels; same contract as
     :func:`fcsweep.model.rates.rates`.
 
     ``contact > 0`` gives the effective rates of one contact-implicit step instead
-    (each pair's integrals scaled by its factor; see :mod:`fcsweep.model.integrators`).
+    (each pair's integrals scaled by its factor; see :mod:`fcsweep.model.integrators`),
+    and ``sweeps > 0`` as well those of one contact-jacobi step of length ``dt``.
     """
     pos = np.ascontiguousarray(pos, dtype=float).reshape(-1, 2)
     N = len(pos)
@@ -54,7 +60,8 @@ def kernel_rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, contour_points=
     ws = workspace or workspace_for(N, contour_points, a.shape[1], box, R0, quadrature)
     if quadrature == "arc" and a.shape[1] > 0 and not ws.pair_buffer:
         raise ValueError("the arc quadrature needs a Workspace with pair_buffer=True")
-    prm = param_vector(box=box, R0=R0, eta=eta, v0=v0, mu_theta=mu_theta, mu_shape=mu_shape, contact=contact)
+    prm = param_vector(box=box, R0=R0, eta=eta, v0=v0, mu_theta=mu_theta, mu_shape=mu_shape, contact=contact,
+                       sweeps=sweeps, kappa_floor=kappa_floor, dt=dt)
     pos = wrap_positions(pos, box)
     ws.nl[4][0] = 0  # positions are new: rebuild the neighbour list
     while not compute_rates(pos, theta, a, b, prm, box is not None, quadrature_code(quadrature),

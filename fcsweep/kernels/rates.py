@@ -15,7 +15,8 @@ import math
 import numpy as np
 from numba import get_thread_id, njit, prange
 
-from .contacts import add_scaled_arc_pair, scale_point_pair
+from .contacts import (J_DEPTH, J_DLAM, J_LAM, J_UOWN, J_UX, J_UY, add_scaled_arc_pair, add_share_rates,
+                       jacobi_factor, rates_depth_rate, record_arc_pair, scale_point_pair)
 from .options import NJIT
 from .pairs import QUAD_ARC, pair_arc, pair_arc_call, pair_weights
 
@@ -212,7 +213,8 @@ def _min_image(dx, dy, Lx, Ly):
 @njit(parallel=True, **NJIT)
 def all_rates(pos, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shape, quad,
               cosn, sinn, cphi, sphi, R, dR, px, py, tx, ty, geo, W, tbuf, acc,
-              use_list, nbr, count, pairbuf, dpos, dth, da, db, coef, kfloor, pbuf):
+              use_list, nbr, count, pairbuf, dpos, dth, da, db, coef, kfloor, pbuf, jacobi, ownbuf, pinfo,
+              dt, lam_max):
     """Deterministic rates of every cell (geometry must be current).
 
     With ``use_list`` the Verlet list ``nbr[i, :count[i]]`` (see :mod:`.verlet`) gives
@@ -260,6 +262,8 @@ def all_rates(pos, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shape, quad
                 dx, dy = _min_image(pos[j, 0] - xi, pos[j, 1] - yi, Lx, Ly)
                 cut = rbi + geo[j, 1]
                 if dx * dx + dy * dy >= cut * cut:
+                    if jacobi:
+                        pinfo[i * cap + p, J_DEPTH] = 0.0
                     continue
                 if arc:
                     # i's share to acc[i], or first to pbuf[tid] to be scaled (one inlined
@@ -271,7 +275,10 @@ def all_rates(pos, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shape, quad
                             pbuf[tid, k] = 0.0
                     pair_arc(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tbuf, tid,
                              dst, row, pairbuf, i * cap + p)
-                    if coef > 0.0:
+                    if jacobi:
+                        record_arc_pair(i, j, i * cap + p, tid, pbuf, pairbuf, ownbuf, pinfo, acc, a, b, geo, R0,
+                                        mu_theta, mu_shape, dt, kfloor, lam_max)
+                    elif coef > 0.0:
                         add_scaled_arc_pair(i, j, tid, pbuf, acc, i, pairbuf, i * cap + p, a, b, geo, R0, coef,
                                             kfloor)
                 else:
@@ -336,8 +343,58 @@ def all_rates(pos, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shape, quad
                     break
                 for q in range(count[i]):
                     if nbr[i, q] == j:
+                        f = pinfo[i * cap + q, J_LAM] if jacobi else 1.0
                         for k in range(acc.shape[1]):
-                            acc[j, k] += pairbuf[i * cap + q, k]
+                            acc[j, k] += f * pairbuf[i * cap + q, k]
                         break
         cell_rates(j, a, b, geo, R, dR, px, py, cosn, sinn, cphi, sphi, W, acc, R0, eta, v0, mu_theta,
                    mu_shape, dpos, dth, da, db)
+
+
+@njit(parallel=True, **NJIT)
+def jacobi_sweeps(a, b, geo, R0, mu_theta, mu_shape, nbr, count, pairbuf, ownbuf, pinfo, dt, sweeps, lam_max,
+                  dpos, dth, da, db):
+    """Jacobi sweeps of the contact-jacobi integrator over the list pairs recorded by
+    :func:`all_rates` (see :mod:`fcsweep.model.integrators`).
+
+    Each sweep takes every contact's approach rate from the other forces out of the
+    current rates (all rates minus the contact's own scaled share), solves the
+    contact's implicit depth step for its factor, and then adds each cell's change of
+    factors times its unscaled shares to its rates.  Pairs are read in the list order of
+    their lower-index cell, so the result does not depend on the number of threads.
+    """
+    N = nbr.shape[0]
+    cap = nbr.shape[1]
+    for _ in range(sweeps):
+        for ii in prange(N):
+            i = np.int64(ii)
+            for p in range(count[i]):
+                j = nbr[i, p]
+                e = i * cap + p
+                if j < i or pinfo[e, J_DEPTH] <= 0.0:
+                    continue
+                ux = pinfo[e, J_UX]
+                uy = pinfo[e, J_UY]
+                lam = pinfo[e, J_LAM]
+                u_own = pinfo[e, J_UOWN]
+                u_other = rates_depth_rate(i, j, ux, uy, dpos, dth, da, db, a, b, geo, R0) - lam * u_own
+                new = jacobi_factor(pinfo[e, J_DEPTH], u_own, u_other, dt, lam_max)
+                pinfo[e, J_DLAM] = new - lam
+                pinfo[e, J_LAM] = new
+        for jj in prange(N):
+            j = np.int64(jj)
+            for p in range(count[j]):
+                i = nbr[j, p]
+                if i > j:
+                    e = j * cap + p
+                    if pinfo[e, J_DEPTH] > 0.0 and pinfo[e, J_DLAM] != 0.0:
+                        add_share_rates(j, pinfo[e, J_DLAM], ownbuf, e, a, geo, R0, mu_theta, mu_shape,
+                                        dpos, dth, da, db, b)
+                else:
+                    for q in range(count[i]):
+                        if nbr[i, q] == j:
+                            e = i * cap + q
+                            if pinfo[e, J_DEPTH] > 0.0 and pinfo[e, J_DLAM] != 0.0:
+                                add_share_rates(j, pinfo[e, J_DLAM], pairbuf, e, a, geo, R0, mu_theta,
+                                                mu_shape, dpos, dth, da, db, b)
+                            break

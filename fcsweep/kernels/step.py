@@ -2,7 +2,9 @@
 
 The deterministic rates are those of explicit Euler, or, with ``prm[P_CONTACT] > 0``, the
 effective rates of the contact-implicit step (each pair's integrals scaled by its
-implicit factor, :mod:`fcsweep.kernels.contacts`); the update and the noise are the same.
+implicit factor, :mod:`fcsweep.kernels.contacts`), or, with ``prm[P_SWEEPS] > 0`` as well,
+those of the contact-jacobi step (the factors solved with each contact's approach rate,
+:func:`fcsweep.kernels.rates.jacobi_sweeps`); the update and the noise are the same.
 
 The noise for all steps of a chunk is drawn by the caller from a numpy Generator and
 passed in, so a run is determined by its parameters and seed, and a chunked or resumed
@@ -20,7 +22,7 @@ from .celllist import build_cell_list, grid_shape
 from .geometry import geometry
 from .options import NJIT
 from .pairs import QUAD_ARC
-from .rates import all_rates
+from .rates import all_rates, jacobi_sweeps
 from .verlet import build_verlet, needs_rebuild
 
 #: Status codes returned by :func:`run_chunk`.
@@ -30,7 +32,8 @@ TOO_FAST = 2
 LIST_FULL = 3
 
 #: Indices into the float parameter vector of :func:`run_chunk`.
-P_LX, P_LY, P_R0, P_ETA, P_V0, P_MUT, P_MUS, P_DT, P_NOISE, P_SMAX, P_DMAX, P_SKIN, P_CONTACT, P_KFLOOR = range(14)
+(P_LX, P_LY, P_R0, P_ETA, P_V0, P_MUT, P_MUS, P_DT, P_NOISE, P_SMAX, P_DMAX, P_SKIN, P_CONTACT, P_KFLOOR, P_SWEEPS,
+ P_LAMMAX) = range(16)
 
 
 @njit(parallel=True, **NJIT)
@@ -96,7 +99,7 @@ def compute_rates(pos, theta, a, b, prm, periodic, quad, tables, scratch, cl, nl
     cosn, sinn, cphi, sphi = tables
     R, dR, px, py, tx, ty, geo, W, tbuf, acc, pbuf = scratch
     cell_of, cell_start, cell_members = cl
-    nbr, count, ref_pos, ref_rb, valid, pairbuf = nl
+    nbr, count, ref_pos, ref_rb, valid, pairbuf, ownbuf, pinfo = nl
     dpos, dth, da, db = out
     R0 = prm[P_R0]
     geometry(theta, a, b, R0, cosn, sinn, cphi, sphi, R, dR, px, py, tx, ty, quad == QUAD_ARC, geo)
@@ -120,9 +123,15 @@ def compute_rates(pos, theta, a, b, prm, periodic, quad, tables, scratch, cl, nl
                 valid[0] = 1
         else:
             valid[0] = 0
+    sweeps = np.int64(prm[P_SWEEPS])
+    jacobi = sweeps > 0 and use_list and quad == QUAD_ARC and a.shape[1] > 0
     all_rates(pos, a, b, Lx, Ly, periodic, R0, prm[P_ETA], prm[P_V0], prm[P_MUT], prm[P_MUS], quad,
               cosn, sinn, cphi, sphi, R, dR, px, py, tx, ty, geo, W, tbuf, acc,
-              use_list, nbr, count, pairbuf, dpos, dth, da, db, prm[P_CONTACT], prm[P_KFLOOR], pbuf)
+              use_list, nbr, count, pairbuf, dpos, dth, da, db, prm[P_CONTACT], prm[P_KFLOOR], pbuf,
+              jacobi, ownbuf, pinfo, prm[P_DT], prm[P_LAMMAX])
+    if jacobi:
+        jacobi_sweeps(a, b, geo, R0, prm[P_MUT], prm[P_MUS], nbr, count, pairbuf, ownbuf, pinfo, prm[P_DT], sweeps,
+                      prm[P_LAMMAX], dpos, dth, da, db)
     return True
 
 

@@ -7,6 +7,7 @@ import math
 import numba
 import numpy as np
 
+from .contacts import J_COLS
 from .geometry import LANES, mode_tables
 from .pairs import QUADRATURE_CODES
 
@@ -61,7 +62,8 @@ class Workspace:
         N = self.N
         rows = N * capacity if self.pair_buffer else 0
         return (np.zeros((N, capacity), np.int64), np.zeros(N, np.int64), np.zeros((N, 2)), np.zeros(N),
-                np.zeros(1, np.int64), np.zeros((rows, 4 + 2 * self.M1)))
+                np.zeros(1, np.int64), np.zeros((rows, 4 + 2 * self.M1)), np.zeros((rows, 4 + 2 * self.M1)),
+                np.zeros((rows, J_COLS)))
 
     def grow_neighbour_list(self):
         """Double the neighbour-list capacity (after a LIST_FULL status); forces a rebuild."""

@@ -37,6 +37,24 @@ nearly flat or conforming (κ_i + κ_j ≈ 0.1–0.3 / R0 at the median at ρ = 
 lower floor damps them harder (more contacts persist from step to step) but also lags
 the contact forces more (the quasi-static depth carries the dt u bias above), which
 costs trajectory accuracy; docs/speed_vs_error.md has the measured trade-off.
+
+``"contact-jacobi"`` removes that lag.  The factor of a contact solves the implicit
+step of its depth with the approach rate ``u`` that the other forces give it,
+
+    λ² δ = δ + dt u + dt u_own λ,        δ = L² κ / 8,
+
+where u_own < 0 is the rate at which the contact's own (unscaled) integrals close its
+depth, measured from its integrals through both cells' mobilities (centroid, rotation,
+shape modes, the area-keeping a0: :func:`depth_rate`), so G need not be modelled.  Its
+fixed point is λ = 1, the explicit force at the exact quasi-static depth: no dt u
+bias.  A contact that the other forces open within the step (δ + dt u <= 0) gets
+λ = 0; λ is capped at :data:`JACOBI_MAX_FACTOR`.  The contacts are coupled through
+their cells, so the step starts from the explicit forces (λ = 1) and takes
+:data:`JACOBI_SWEEPS` Jacobi sweeps: each takes every contact's u from the current
+rates, solves its λ, and updates the rates (deterministic for any thread count).  The
+depth uses the curvature sum floored at :data:`JACOBI_KAPPA_FLOOR` / R0.  It needs the
+arc quadrature (one factor per pair for both cells) and shape modes; in boxes too small
+for a cell list (a few cells across) it falls back to the contact-implicit factor.
 """
 
 from __future__ import annotations
@@ -44,10 +62,16 @@ from __future__ import annotations
 import numpy as np
 
 #: Integrator names; ``"euler"`` (the paper's) is the default.
-INTEGRATORS = ("euler", "contact-implicit")
+INTEGRATORS = ("euler", "contact-implicit", "contact-jacobi")
 DEFAULT_INTEGRATOR = "euler"
 #: Floor of the curvature sum κ_i + κ_j (units 1/R0) in the contact law (see above).
 KAPPA_FLOOR = 1.0
+#: Jacobi sweeps over the contacts per step of ``"contact-jacobi"``.
+JACOBI_SWEEPS = 2
+#: Largest factor of a contact's integrals under ``"contact-jacobi"``.
+JACOBI_MAX_FACTOR = 4.0
+#: Floor of κ_i + κ_j (units 1/R0) in the contact depth of ``"contact-jacobi"``.
+JACOBI_KAPPA_FLOOR = 0.25
 
 
 def check_integrator(name) -> str:
@@ -55,6 +79,24 @@ def check_integrator(name) -> str:
     if name not in INTEGRATORS:
         raise ValueError(f"integrator must be one of {list(INTEGRATORS)}; got {name!r}")
     return str(name)
+
+
+def integrator_problem(integrator, quadrature, modes):
+    """Why ``integrator`` cannot run with this quadrature and mode count, or None."""
+    if check_integrator(integrator) == "contact-jacobi" and (quadrature != "arc" or modes < 2):
+        return (f"integrator 'contact-jacobi' needs quadrature 'arc' and modes >= 2 (one factor per contact for "
+                f"both cells); got quadrature {quadrature!r}, modes {modes}: use 'contact-implicit' there")
+    return None
+
+
+def kappa_floor(integrator) -> float:
+    """Floor of the contact curvature sum (units 1/R0) that ``integrator`` uses."""
+    return JACOBI_KAPPA_FLOOR if check_integrator(integrator) == "contact-jacobi" else KAPPA_FLOOR
+
+
+def jacobi_sweeps(integrator) -> int:
+    """Jacobi sweeps per step of ``integrator`` (0 but for ``"contact-jacobi"``)."""
+    return JACOBI_SWEEPS if check_integrator(integrator) == "contact-jacobi" else 0
 
 
 def contact_coefficient(integrator, dt, modes, R0=1.0, mu_shape=1.0) -> float:
@@ -113,7 +155,49 @@ def quasi_static_depth(u, G, c, dt):
     return (u / (G * c)) ** 2 + dt * u
 
 
-__all__ = ["INTEGRATORS", "DEFAULT_INTEGRATOR", "KAPPA_FLOOR", "check_integrator", "contact_coefficient",
+def jacobi_factor(depth, u_own, u_other, dt, lam_max=None):
+    """Factor of a contact under ``"contact-jacobi"``: the positive root of
+    λ² δ = δ + dt u_other + dt u_own λ, 0 where δ + dt u_other <= 0, at most ``lam_max``
+    (default :data:`JACOBI_MAX_FACTOR`).  Scalars or arrays."""
+    depth, u_own, u_other = (np.asarray(x, dtype=float) for x in (depth, u_own, u_other))
+    rhs = depth + dt * u_other
+    A = np.maximum(-dt * u_own, 0.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        lam = np.where(rhs > 0.0, 2.0 * rhs / (A + np.sqrt(A * A + 4.0 * depth * np.maximum(rhs, 0.0))), 0.0)
+    lam = np.minimum(lam, JACOBI_MAX_FACTOR if lam_max is None else lam_max)
+    return float(lam) if lam.ndim == 0 else lam
+
+
+def radial_rate(a, b, da, db, dtheta, psi, R0=1.0):
+    """dR/dt of one contour at the fixed lab direction whose body-frame angle is ``psi``,
+    for mode rates ``da``, ``db`` and rotation rate ``dtheta`` (with the area-keeping a0;
+    the numpy twin of :func:`fcsweep.kernels.contacts.radial_rate`)."""
+    from .shape import a0_of
+
+    a, b, da, db = (np.asarray(x, dtype=float) for x in (a, b, da, db))
+    n = np.arange(2, a.size + 2)
+    c, s = np.cos(n * psi), np.sin(n * psi)
+    a0dot = -np.sum(a * da + b * db) / (2.0 * a0_of(a, b))
+    dR = np.sum(n * (b * c - a * s))
+    return R0 * (a0dot + np.sum(da * c + db * s) - dtheta * dR)
+
+
+def depth_rate(direction, theta, a, b, rates, i, j, R0=1.0):
+    """Rate of change of the overlap depth of cells i and j along the lab ``direction``
+    (angle, from i towards j) under ``rates`` (dict of dpos, dtheta, da, db as returned by
+    :func:`fcsweep.model.rates.rates`): relative approach of the centroids plus both
+    contours' radial rates at the contact."""
+    u = np.array([np.cos(direction), np.sin(direction)])
+    v = rates["dpos"]
+    out = float((v[i] - v[j]) @ u)
+    for k, ang in ((i, direction), (j, direction + np.pi)):
+        out += radial_rate(a[k], b[k], rates["da"][k], rates["db"][k], rates["dtheta"][k], ang - theta[k], R0)
+    return out
+
+
+__all__ = ["INTEGRATORS", "DEFAULT_INTEGRATOR", "KAPPA_FLOOR", "JACOBI_SWEEPS", "JACOBI_MAX_FACTOR",
+           "JACOBI_KAPPA_FLOOR", "check_integrator", "integrator_problem", "kappa_floor", "jacobi_sweeps",
+           "jacobi_factor", "radial_rate", "depth_rate", "contact_coefficient",
            "contour_curvature", "pair_coefficient", "contact_factor", "quasi_static_depth", "contacts",
            "contact_persistence"]
 
