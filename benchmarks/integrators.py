@@ -6,8 +6,10 @@ Four measurements, all at rho = 0.95, K = 40, M = 6:
 
 1. **Contact persistence** at the issue's two states (eta, v0) = (0.03, 0.06) and
    (0.1, 0.01), N = 64, D_r = 0.1, 5 time units off the lattice: of the pairs whose exact
-   overlap area (``overlap_exact.overlap_areas``) is positive at one step, the fraction
-   still overlapping at the next, pooled over 10 steps.
+   overlap area (``overlap_exact.overlap_areas``) is positive at one instant, the fraction
+   still overlapping 0.01 time units later (one step at dt = 0.01), pooled over 10
+   intervals; and the mean total overlap area.  The first row of each state is arc +
+   Euler at dt = 2.5e-4, the converged dynamics sampled at the same interval.
 2. **Trajectory error** with D_r = 0 (deterministic), N = 64 from the lattice, T = 2:
    rms over cells of the unwrapped centroid difference to arc + Euler at dt = 3e-4 (the
    converged reference of the model's exact-overlap forces), at (eta, v0) = (0.03, 0.06).
@@ -43,50 +45,65 @@ import time
 import numba
 import numpy as np
 
-from fcsweep.model.integrators import contact_persistence, contacts
+from fcsweep.model.integrators import contact_persistence, integrator_problem
+from fcsweep.model.overlap_exact import candidate_pairs, overlap_areas
 from fcsweep.simulation import INTEGRATORS, Simulation, SimulationError
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 from speed_vs_error import equilibrated, fork, observe  # noqa: E402
 
 QUADS = ("binary", "arc")
+#: Interval (time units) between the contact sets of the persistence measurement: one
+#: step at dt = 0.01, several at smaller dt (the converged reference is sampled alike).
+P_INTERVAL = 0.01
 TOL = {"q": 0.005, "rho_d": 0.02, "msd_rel": 0.10}
 
 
 def config(quick):
     if quick:
-        return {"quick": True, "p_states": ((0.03, 0.06),), "p_T": 1.0, "traj_T": 0.5, "traj_ref_dt": 2.5e-3,
+        return {"quick": True, "p_states": ((0.03, 0.06),), "p_T": 1.0, "p_ref_dt": 2.5e-3, "traj_T": 0.5, "traj_ref_dt": 2.5e-3,
                 "dts": (0.01, 0.02), "default_dt": 0.01, "obs_N": 16, "obs_seeds": 2, "obs_eq": 1.0,
                 "obs_T": 1.0, "obs_skip": 0.2, "obs_sample": 0.2, "obs_lag": 0.4, "obs_ref_dt": 5e-3,
                 "cost_N": 64, "cost_warm": 50, "cost_steps": 20}
-    return {"quick": False, "p_states": ((0.03, 0.06), (0.1, 0.01)), "p_T": 5.0, "traj_T": 2.0,
+    return {"quick": False, "p_states": ((0.03, 0.06), (0.1, 0.01)), "p_T": 5.0, "p_ref_dt": 2.5e-4, "traj_T": 2.0,
             "traj_ref_dt": 3e-4, "dts": (0.0025, 0.005, 0.01, 0.02), "default_dt": 0.005,
             "obs_N": 144, "obs_seeds": 4, "obs_eq": 30.0, "obs_T": 30.0, "obs_skip": 5.0, "obs_sample": 0.2,
             "obs_lag": 10.0, "obs_ref_dt": 1.25e-3, "cost_N": 1024, "cost_warm": 2000, "cost_steps": 60}
 
 
 def settings():
-    return [(q, integ) for q in QUADS for integ in INTEGRATORS]
+    """Every quadrature x integrator pair that can run (contact-jacobi needs arc)."""
+    return [(q, integ) for q in QUADS for integ in INTEGRATORS if integrator_problem(integ, q, 6) is None]
+
+
+def overlap_total(sim):
+    """Sum of the exact overlap areas of all pairs (R0²) and the set of overlapping pairs."""
+    s = sim.state
+    i, j, d = candidate_pairs(s.pos, s.a, s.b, box=sim.params.box)
+    area = overlap_areas(d, s.theta[i], s.a[i], s.b[i], s.theta[j], s.a[j], s.b[j], resolution=1024)
+    hit = area > 0.0
+    return float(area[hit].sum()), set(zip(i[hit].tolist(), j[hit].tolist()))
 
 
 # ----------------------------------------------------------------------------- parts
 def persistence(cfg, log):
     out = {}
     for eta, v0 in cfg["p_states"]:
-        for q, integ in settings():
-            for dt in (0.005, 0.01):
-                sim = Simulation.from_lattice(64, eta=eta, v0=v0, Dr=0.1, seed=3, dt=dt, quadrature=q,
-                                              integrator=integ)
-                sim.advance(int(round(cfg["p_T"] / dt)))
-                sets = []
-                for _ in range(11):
-                    s = sim.state
-                    sets.append(contacts(s.pos, s.theta, s.a, s.b, box=sim.params.box))
-                    sim.advance(1)
-                key = f"eta={eta:g} v0={v0:g} {q} {integ} dt={dt:g}"
-                out[key] = {"eta": eta, "v0": v0, "quadrature": q, "integrator": integ, "dt": dt,
-                            "persistence": contact_persistence(sets),
-                            "contacts": float(np.mean([len(x) for x in sets]))}
+        runs = [("arc", "euler", cfg["p_ref_dt"])] + [(q, i, dt) for q, i in settings() for dt in (0.005, 0.01)]
+        for q, integ, dt in runs:
+            sim = Simulation.from_lattice(64, eta=eta, v0=v0, Dr=0.1, seed=3, dt=dt, quadrature=q,
+                                          integrator=integ)
+            sim.advance(int(round(cfg["p_T"] / dt)))
+            sets, areas = [], []
+            for _ in range(11):
+                area, pairs = overlap_total(sim)
+                sets.append(pairs)
+                areas.append(area)
+                sim.advance(int(round(P_INTERVAL / dt)))
+            key = f"eta={eta:g} v0={v0:g} {q} {integ} dt={dt:g}"
+            out[key] = {"eta": eta, "v0": v0, "quadrature": q, "integrator": integ, "dt": dt,
+                        "persistence": contact_persistence(sets),
+                        "contacts": float(np.mean([len(x) for x in sets])), "area": float(np.mean(areas))}
         log(f"  persistence eta={eta:g} v0={v0:g} done")
     return out
 
@@ -175,11 +192,13 @@ def qualifies(obs_row, err, err_target):
 def tables(res, cfg):
     L = ["# Integrators: cost per time unit at fixed accuracy (benchmarks/integrators.py"
          + (" --quick" if cfg["quick"] else "") + ")", ""]
-    L.append("## Contact persistence (fraction of overlapping pairs still overlapping at the next step)")
-    L.append(f"{'state':<16} {'quadrature':<8} {'integrator':<17} {'dt':>6} {'persistence':>11} {'contacts':>8}")
+    L.append(f"## Contact persistence (fraction of overlapping pairs still overlapping {P_INTERVAL:g} time units "
+             f"later) and total overlap area (R0²); the first row of each state is the converged reference")
+    L.append(f"{'state':<16} {'quadrature':<8} {'integrator':<17} {'dt':>7} {'persistence':>11} {'contacts':>8} "
+             f"{'area':>7}")
     for r in res["persistence"].values():
-        L.append(f"eta={r['eta']:<5g} v0={r['v0']:<5g} {r['quadrature']:<8} {r['integrator']:<17} {r['dt']:>6g} "
-                 f"{r['persistence']:>11.3f} {r['contacts']:>8.1f}")
+        L.append(f"eta={r['eta']:<5g} v0={r['v0']:<5g} {r['quadrature']:<8} {r['integrator']:<17} {r['dt']:>7g} "
+                 f"{r['persistence']:>11.3f} {r['contacts']:>8.1f} {r['area']:>7.4f}")
     L += ["", f"## Trajectory error (rms centroid, R0) at T = {cfg['traj_T']:g}, D_r = 0, N = 64, "
           f"against arc + euler dt = {cfg['traj_ref_dt']:g}"]
     L.append(f"{'quadrature':<8} {'integrator':<17} " + " ".join(f"{'dt=' + format(d, 'g'):>11}" for d in cfg["dts"]))
