@@ -952,15 +952,18 @@ def check_step_sizes(cfg: "SweepConfig") -> None:
                 f"{MAX_DR_DT:g} (beyond it the discrete walk no longer has D0 = v0^2/(2 Dr)): lower dt or Dr")
 
 
-def run_memory_bytes(N: int, contour_points: int, modes: int, quadrature: str = "arc") -> int:
+def run_memory_bytes(N: int, contour_points: int, modes: int, quadrature: str = "arc",
+                     integrator: str = DEFAULT_INTEGRATOR) -> int:
     """Estimated memory of one run's simulation (bytes): the per-cell work arrays of the
     kernels (contour samples, tangents and weights, 2K + 5 (2K + 4) doubles per cell; the
-    neighbour list; the arc rule's pair buffer) plus the state and one frame buffer of
-    the sweep runner (64 MiB)."""
+    neighbour list; the arc rule's pair buffer, and contact-jacobi's per-pair shares and
+    records) plus the state and one frame buffer of the sweep runner (64 MiB)."""
     K, M1 = int(contour_points), max(int(modes) - 1, 0)
     per_cell = 2 * K + 5 * (2 * K + 4) + 5 + (4 + 2 * M1) + 3 + (3 + 2 * M1) + 1 + 2 * 16 + 4 + 2 * (5 + 2 * M1)
     if quadrature == "arc":
         per_cell += 16 * (4 + 2 * M1)
+        if integrator == "contact-jacobi":
+            per_cell += 16 * (4 + 2 * M1 + 6)  # 6 = the columns of kernels.contacts' pair record
     return 8 * int(N) * per_cell + (64 << 20)
 
 
@@ -987,10 +990,10 @@ def check_memory(cfg: "SweepConfig", available: int | None = None) -> None:
     available = machine_memory_bytes() if available is None else available
     if not available:
         return
-    combos = _grid_or_model(cfg, ("N", "contour_points", "modes", "quadrature"))
+    combos = _grid_or_model(cfg, ("N", "contour_points", "modes", "quadrature", "integrator"))
     need, worst = max((run_memory_bytes(*c), c) for c in combos)
     if need > available:
-        N, K, modes, quad = worst
+        N, K, modes, quad, _ = worst
         key = next((f"grid.{k}" for k in ("N", "contour_points") if k in cfg.grid), "model.N")
         raise ConfigError(f"{key}: a run with N = {N}, contour_points = {K}, modes = {modes} ({quad}) needs about "
                           f"{need / 2**30:.1f} GiB of memory; this machine has {available / 2**30:.1f} GiB")

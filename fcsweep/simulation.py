@@ -156,7 +156,8 @@ class Simulation:
         self.state = state
         self.rng = rng
         M1 = max(params.modes - 1, 0)
-        self._ws = workspace_for(params.N, params.contour_points, M1, params.box, params.R0, params.quadrature)
+        self._ws = workspace_for(params.N, params.contour_points, M1, params.box, params.R0, params.quadrature,
+                                 params.integrator)
         self._periodic = True
         self._quad = quadrature_code(params.quadrature)
         self._warned_pinned = False

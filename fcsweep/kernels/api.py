@@ -57,9 +57,12 @@ def kernel_rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, contour_points=
     theta = np.ascontiguousarray(theta, dtype=float).reshape(N)
     a = np.ascontiguousarray(a, dtype=float).reshape(N, -1)
     b = np.ascontiguousarray(b, dtype=float).reshape(N, -1)
-    ws = workspace or workspace_for(N, contour_points, a.shape[1], box, R0, quadrature)
+    ws = workspace or workspace_for(N, contour_points, a.shape[1], box, R0, quadrature,
+                                    "contact-jacobi" if sweeps > 0 else "euler")
     if quadrature == "arc" and a.shape[1] > 0 and not ws.pair_buffer:
         raise ValueError("the arc quadrature needs a Workspace with pair_buffer=True")
+    if sweeps > 0 and not ws.pair_records:
+        raise ValueError("contact-jacobi needs a Workspace with pair_records=True")
     prm = param_vector(box=box, R0=R0, eta=eta, v0=v0, mu_theta=mu_theta, mu_shape=mu_shape, contact=contact,
                        sweeps=sweeps, kappa_floor=kappa_floor, dt=dt)
     pos = wrap_positions(pos, box)

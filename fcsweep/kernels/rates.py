@@ -352,7 +352,7 @@ def all_rates(pos, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shape, quad
 
 
 @njit(parallel=True, **NJIT)
-def jacobi_sweeps(a, b, geo, R0, mu_theta, mu_shape, nbr, count, pairbuf, ownbuf, pinfo, dt, sweeps, lam_max,
+def contact_sweeps(a, b, geo, R0, mu_theta, mu_shape, nbr, count, pairbuf, ownbuf, pinfo, dt, sweeps, lam_max,
                   dpos, dth, da, db):
     """Jacobi sweeps of the contact-jacobi integrator over the list pairs recorded by
     :func:`all_rates` (see :mod:`fcsweep.model.integrators`).

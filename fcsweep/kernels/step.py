@@ -4,7 +4,7 @@ The deterministic rates are those of explicit Euler, or, with ``prm[P_CONTACT] >
 effective rates of the contact-implicit step (each pair's integrals scaled by its
 implicit factor, :mod:`fcsweep.kernels.contacts`), or, with ``prm[P_SWEEPS] > 0`` as well,
 those of the contact-jacobi step (the factors solved with each contact's approach rate,
-:func:`fcsweep.kernels.rates.jacobi_sweeps`); the update and the noise are the same.
+:func:`fcsweep.kernels.rates.contact_sweeps`); the update and the noise are the same.
 
 The noise for all steps of a chunk is drawn by the caller from a numpy Generator and
 passed in, so a run is determined by its parameters and seed, and a chunked or resumed
@@ -22,7 +22,7 @@ from .celllist import build_cell_list, grid_shape
 from .geometry import geometry
 from .options import NJIT
 from .pairs import QUAD_ARC
-from .rates import all_rates, jacobi_sweeps
+from .rates import all_rates, contact_sweeps
 from .verlet import build_verlet, needs_rebuild
 
 #: Status codes returned by :func:`run_chunk`.
@@ -124,13 +124,13 @@ def compute_rates(pos, theta, a, b, prm, periodic, quad, tables, scratch, cl, nl
         else:
             valid[0] = 0
     sweeps = np.int64(prm[P_SWEEPS])
-    jacobi = sweeps > 0 and use_list and quad == QUAD_ARC and a.shape[1] > 0
+    jacobi = sweeps > 0 and use_list and quad == QUAD_ARC and a.shape[1] > 0 and pinfo.shape[0] > 0
     all_rates(pos, a, b, Lx, Ly, periodic, R0, prm[P_ETA], prm[P_V0], prm[P_MUT], prm[P_MUS], quad,
               cosn, sinn, cphi, sphi, R, dR, px, py, tx, ty, geo, W, tbuf, acc,
               use_list, nbr, count, pairbuf, dpos, dth, da, db, prm[P_CONTACT], prm[P_KFLOOR], pbuf,
               jacobi, ownbuf, pinfo, prm[P_DT], prm[P_LAMMAX])
     if jacobi:
-        jacobi_sweeps(a, b, geo, R0, prm[P_MUT], prm[P_MUS], nbr, count, pairbuf, ownbuf, pinfo, prm[P_DT], sweeps,
+        contact_sweeps(a, b, geo, R0, prm[P_MUT], prm[P_MUS], nbr, count, pairbuf, ownbuf, pinfo, prm[P_DT], sweeps,
                       prm[P_LAMMAX], dpos, dth, da, db)
     return True
 

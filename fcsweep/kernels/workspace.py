@@ -24,11 +24,15 @@ class Workspace:
     pair_buffer : bool
         Allocate the per-pair buffer the arc rule needs (N x list capacity x (4 + 2 M1)
         doubles: 18 MB at N = 10^4); the other rules never read it.
+    pair_records : bool
+        Allocate the per-pair shares and records of the contact-jacobi integrator
+        (N x list capacity x (4 + 2 M1 + 6) doubles); needs ``pair_buffer``.
     """
 
-    def __init__(self, N, K, M1, box, R0=1.0, pair_buffer=True):
+    def __init__(self, N, K, M1, box, R0=1.0, pair_buffer=True, pair_records=False):
         self.N, self.K, self.M1 = int(N), int(K), int(M1)
         self.pair_buffer = bool(pair_buffer)
+        self.pair_records = bool(pair_records) and self.pair_buffer
         self.tables = mode_tables(self.K, self.M1)
         self.scratch = (
             np.zeros((N, K)),  # R
@@ -57,13 +61,16 @@ class Workspace:
 
     def neighbour_list(self, capacity):
         """(nbr, count, reference positions, reference bounding radii, valid flag, pair
-        buffer) for up to ``capacity`` neighbours per cell.  The pair buffer holds, for
-        the arc rule, the share of list pair (i, p) that cell nbr[i, p] collects."""
+        buffer, own shares, pair records) for up to ``capacity`` neighbours per cell.  The
+        pair buffer holds, for the arc rule, the share of list pair (i, p) that cell
+        nbr[i, p] collects; contact-jacobi keeps i's share and the pair's record
+        (:mod:`.contacts`) in the last two."""
         N = self.N
         rows = N * capacity if self.pair_buffer else 0
+        records = rows if self.pair_records else 0
         return (np.zeros((N, capacity), np.int64), np.zeros(N, np.int64), np.zeros((N, 2)), np.zeros(N),
-                np.zeros(1, np.int64), np.zeros((rows, 4 + 2 * self.M1)), np.zeros((rows, 4 + 2 * self.M1)),
-                np.zeros((rows, J_COLS)))
+                np.zeros(1, np.int64), np.zeros((rows, 4 + 2 * self.M1)), np.zeros((records, 4 + 2 * self.M1)),
+                np.zeros((records, J_COLS)))
 
     def grow_neighbour_list(self):
         """Double the neighbour-list capacity (after a LIST_FULL status); forces a rebuild."""
@@ -74,9 +81,11 @@ class Workspace:
 SKIN = 0.3
 
 
-def workspace_for(N, K, M1, box, R0, quadrature):
-    """A :class:`Workspace` for one quadrature: the pair buffer only for the arc rule."""
-    return Workspace(N, K, M1, box, R0, pair_buffer=quadrature_code(quadrature) == QUADRATURE_CODES["arc"])
+def workspace_for(N, K, M1, box, R0, quadrature, integrator="euler"):
+    """A :class:`Workspace` for one quadrature and integrator: the pair buffer only for the
+    arc rule, the pair records only for contact-jacobi."""
+    arc = quadrature_code(quadrature) == QUADRATURE_CODES["arc"]
+    return Workspace(N, K, M1, box, R0, pair_buffer=arc, pair_records=integrator == "contact-jacobi")
 
 
 def quadrature_code(name):
