@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..model.integrators import JACOBI_MAX_FACTOR, KAPPA_FLOOR
-from .step import (P_CONTACT, P_DMAX, P_DT, P_ETA, P_KFLOOR, P_LX, P_LY, P_MUS, P_MUT, P_NOISE, P_R0,
-                   P_SKIN, P_SMAX, P_SWEEPS, P_LAMMAX, P_V0, compute_rates)
+from .records import (N_PARAMS, P_CONTACT, P_DMAX, P_DT, P_ETA, P_KFLOOR, P_LAMMAX, P_LX, P_LY, P_MUS, P_MUT,
+                      P_NOISE, P_R0, P_SKIN, P_SMAX, P_SWEEPS, P_V0)
+from .step import compute_rates
 from .workspace import SKIN, quadrature_code, workspace_for
 
 
@@ -19,7 +20,7 @@ def param_vector(*, box, R0, eta, v0, mu_theta, mu_shape, dt=0.0, noise_amp=0.0,
     ``sweeps`` the Jacobi sweeps of contact-jacobi (0 otherwise) and ``kappa_floor`` the
     floor of the contact curvature (:func:`fcsweep.model.integrators.kappa_floor`).
     """
-    prm = np.zeros(16)
+    prm = np.zeros(N_PARAMS)
     Lx, Ly = (1.0, 1.0) if box is None else (float(box[0]), float(box[1]))
     prm[P_LX], prm[P_LY], prm[P_R0] = Lx, Ly, R0
     prm[P_ETA], prm[P_V0], prm[P_MUT], prm[P_MUS] = eta, v0, mu_theta, mu_shape

@@ -38,13 +38,16 @@ def mode_tables(K, M1):
 
 
 @njit(parallel=True, **NJIT)
-def geometry(theta, a, b, R0, cosn, sinn, cphi, sphi, R, dR, px, py, tx, ty, tangents, geo):
+def geometry(theta, a, b, R0, tables, scratch, tangents):
     """Contour radius, its derivative and lab-frame contour points of every cell
-    (and, if ``tangents``, the contour tangents dx/dphi = R' e + R e_perp).
+    (and, if ``tangents``, the contour tangents dx/dphi = R' e + R e_perp) into
+    ``scratch`` (a :class:`.records.Scratch`: R, dR, px, py, tx, ty, geo).
 
     Loops use unsigned indices so that numba emits no wraparound checks and LLVM
     vectorises them across contour points.
     """
+    cosn, sinn, cphi, sphi = tables
+    R, dR, px, py, tx, ty, geo = scratch.R, scratch.dR, scratch.px, scratch.py, scratch.tx, scratch.ty, scratch.geo
     N, M1 = a.shape
     K = np.uint64(cphi.shape[0])
     L = np.uint64(px.shape[1])

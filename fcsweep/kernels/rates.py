@@ -19,6 +19,7 @@ from .contacts import (J_DEPTH, J_DLAM, J_LAM, J_UOWN, J_UX, J_UY, add_scaled_ar
                        jacobi_factor, rates_depth_rate, record_arc_pair, scale_point_pair)
 from .options import NJIT
 from .pairs import QUAD_ARC, pair_arc, pair_arc_call, pair_weights
+from .records import P_CONTACT, P_DT, P_ETA, P_KFLOOR, P_LAMMAX, P_LX, P_LY, P_MUS, P_MUT, P_R0, P_V0
 
 
 @njit(inline="always", **NJIT)
@@ -137,6 +138,9 @@ def cell_rates(i, a, b, geo, R, dR, px, py, cosn, sinn, cphi, sphi, W, acc, R0, 
                dpos, dth, da, db):
     """Rates of cell i from its point weights ``W[i]`` and arc integrals ``acc[i]``.
 
+    (Plain arrays, not records: it is inlined into a prange loop, and numba loses the
+    writes to arrays taken out of a tuple inside an inlined function there.)
+
     ``W[i]`` is periodic with period K (windows never wrap); it is folded first.
     ``acc[i]`` holds, for the arc rule, the integrals over overlap arcs of
     [force x, force y, torque, R, R cos n phi (M1), R sin n phi (M1)].
@@ -211,11 +215,10 @@ def _min_image(dx, dy, Lx, Ly):
 
 
 @njit(parallel=True, **NJIT)
-def all_rates(pos, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shape, quad,
-              cosn, sinn, cphi, sphi, R, dR, px, py, tx, ty, geo, W, tbuf, acc,
-              use_list, nbr, count, pairbuf, dpos, dth, da, db, coef, kfloor, pbuf, jacobi, ownbuf, pinfo,
-              dt, lam_max):
-    """Deterministic rates of every cell (geometry must be current).
+def all_rates(pos, a, b, prm, periodic, quad, tables, scratch, nl, out, use_list, jacobi):
+    """Deterministic rates of every cell into ``out`` (geometry in ``scratch`` must be
+    current; the records are those of :mod:`.records`, unpacked here, outside the
+    parallel loops: the functions inlined into them take plain arrays).
 
     With ``use_list`` the Verlet list ``nbr[i, :count[i]]`` (see :mod:`.verlet`) gives
     the candidates in ascending j; otherwise (boxes too small for a cell list) every
@@ -236,6 +239,21 @@ def all_rates(pos, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shape, quad
     in boxes of a few cells, is left explicit.)  The rates are then the effective rates
     of one step of length dt, not the physical ones.
     """
+    cosn, sinn, cphi, sphi = tables
+    R, dR, px, py, tx, ty, geo, W, tbuf, acc, pbuf = scratch
+    nbr, count, _, _, _, pairbuf, ownbuf, pinfo = nl
+    dpos, dth, da, db = out
+    Lx = prm[P_LX]
+    Ly = prm[P_LY]
+    R0 = prm[P_R0]
+    eta = prm[P_ETA]
+    v0 = prm[P_V0]
+    mu_theta = prm[P_MUT]
+    mu_shape = prm[P_MUS]
+    coef = prm[P_CONTACT]
+    kfloor = prm[P_KFLOOR]
+    dt = prm[P_DT]
+    lam_max = prm[P_LAMMAX]
     N = pos.shape[0]
     arc = quad == QUAD_ARC and a.shape[1] > 0
     points = coef > 0.0 and a.shape[1] > 0 and not arc
@@ -352,8 +370,7 @@ def all_rates(pos, a, b, Lx, Ly, periodic, R0, eta, v0, mu_theta, mu_shape, quad
 
 
 @njit(parallel=True, **NJIT)
-def contact_sweeps(a, b, geo, R0, mu_theta, mu_shape, nbr, count, pairbuf, ownbuf, pinfo, dt, sweeps, lam_max,
-                  dpos, dth, da, db):
+def contact_sweeps(a, b, prm, scratch, nl, out, sweeps):
     """Jacobi sweeps of the contact-jacobi integrator over the list pairs recorded by
     :func:`all_rates` (see :mod:`fcsweep.model.integrators`).
 
@@ -363,6 +380,14 @@ def contact_sweeps(a, b, geo, R0, mu_theta, mu_shape, nbr, count, pairbuf, ownbu
     factors times its unscaled shares to its rates.  Pairs are read in the list order of
     their lower-index cell, so the result does not depend on the number of threads.
     """
+    geo = scratch.geo
+    nbr, count, _, _, _, pairbuf, ownbuf, pinfo = nl
+    dpos, dth, da, db = out
+    R0 = prm[P_R0]
+    mu_theta = prm[P_MUT]
+    mu_shape = prm[P_MUS]
+    dt = prm[P_DT]
+    lam_max = prm[P_LAMMAX]
     N = nbr.shape[0]
     cap = nbr.shape[1]
     for _ in range(sweeps):

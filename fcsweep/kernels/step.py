@@ -23,6 +23,8 @@ from .geometry import geometry
 from .options import NJIT
 from .pairs import QUAD_ARC
 from .rates import all_rates, contact_sweeps
+from .records import (P_DMAX, P_DT, P_LX, P_LY, P_NOISE, P_R0, P_SKIN, P_SMAX,  # noqa: F401 (re-exported)
+                      P_SWEEPS)
 from .verlet import build_verlet, needs_rebuild
 
 #: Status codes returned by :func:`run_chunk`.
@@ -31,18 +33,22 @@ NONFINITE = 1
 TOO_FAST = 2
 LIST_FULL = 3
 
-#: Indices into the float parameter vector of :func:`run_chunk`.
-(P_LX, P_LY, P_R0, P_ETA, P_V0, P_MUT, P_MUS, P_DT, P_NOISE, P_SMAX, P_DMAX, P_SKIN, P_CONTACT, P_KFLOOR, P_SWEEPS,
- P_LAMMAX) = range(16)
 
 
 @njit(parallel=True, **NJIT)
-def euler_update(pos, image, theta, a, b, dpos, dth, da, db, noise, Lx, Ly, periodic, dt, noise_amp,
-                 smax, dmax, flags):
-    """One Euler-Maruyama update; project shapes beyond ``smax``; flag bad cells.
+def euler_update(pos, image, theta, a, b, out, noise, prm, periodic, flags):
+    """One Euler-Maruyama update with the rates ``out``; project shapes beyond
+    ``prm[P_SMAX]``; flag bad cells.
 
-    ``flags[i]``: bit 1 non-finite, bit 2 displacement above ``dmax``, bit 4 projected.
+    ``flags[i]``: bit 1 non-finite, bit 2 displacement above ``prm[P_DMAX]``, bit 4 projected.
     """
+    dpos, dth, da, db = out
+    Lx = prm[P_LX]
+    Ly = prm[P_LY]
+    dt = prm[P_DT]
+    noise_amp = prm[P_NOISE]
+    smax = prm[P_SMAX]
+    dmax = prm[P_DMAX]
     N, M1 = a.shape
     for i in prange(N):
         f = 0
@@ -96,13 +102,10 @@ def compute_rates(pos, theta, a, b, prm, periodic, quad, tables, scratch, cl, nl
     Returns False if the neighbour list overflowed (the caller enlarges it and calls
     again; nothing has been changed but scratch).
     """
-    cosn, sinn, cphi, sphi = tables
-    R, dR, px, py, tx, ty, geo, W, tbuf, acc, pbuf = scratch
+    geo = scratch.geo
     cell_of, cell_start, cell_members = cl
-    nbr, count, ref_pos, ref_rb, valid, pairbuf, ownbuf, pinfo = nl
-    dpos, dth, da, db = out
-    R0 = prm[P_R0]
-    geometry(theta, a, b, R0, cosn, sinn, cphi, sphi, R, dR, px, py, tx, ty, quad == QUAD_ARC, geo)
+    nbr, count, ref_pos, ref_rb, valid, _, _, pinfo = nl
+    geometry(theta, a, b, prm[P_R0], tables, scratch, quad == QUAD_ARC)
     Lx = prm[P_LX]
     Ly = prm[P_LY]
     skin = prm[P_SKIN]
@@ -125,13 +128,9 @@ def compute_rates(pos, theta, a, b, prm, periodic, quad, tables, scratch, cl, nl
             valid[0] = 0
     sweeps = np.int64(prm[P_SWEEPS])
     jacobi = sweeps > 0 and use_list and quad == QUAD_ARC and a.shape[1] > 0 and pinfo.shape[0] > 0
-    all_rates(pos, a, b, Lx, Ly, periodic, R0, prm[P_ETA], prm[P_V0], prm[P_MUT], prm[P_MUS], quad,
-              cosn, sinn, cphi, sphi, R, dR, px, py, tx, ty, geo, W, tbuf, acc,
-              use_list, nbr, count, pairbuf, dpos, dth, da, db, prm[P_CONTACT], prm[P_KFLOOR], pbuf,
-              jacobi, ownbuf, pinfo, prm[P_DT], prm[P_LAMMAX])
+    all_rates(pos, a, b, prm, periodic, quad, tables, scratch, nl, out, use_list, jacobi)
     if jacobi:
-        contact_sweeps(a, b, geo, R0, prm[P_MUT], prm[P_MUS], nbr, count, pairbuf, ownbuf, pinfo, prm[P_DT], sweeps,
-                      prm[P_LAMMAX], dpos, dth, da, db)
+        contact_sweeps(a, b, prm, scratch, nl, out, sweeps)
     return True
 
 
@@ -148,13 +147,11 @@ def run_chunk(pos, image, theta, a, b, noise, prm, periodic, quad, tables, scrat
     projections : int
         Admissibility projections during the chunk.
     """
-    dpos, dth, da, db = out
     nproj = 0
     for step in range(noise.shape[0]):
         if not compute_rates(pos, theta, a, b, prm, periodic, quad, tables, scratch, cl, nl, out):
             return step, LIST_FULL, nproj
-        euler_update(pos, image, theta, a, b, dpos, dth, da, db, noise[step], prm[P_LX], prm[P_LY], periodic,
-                     prm[P_DT], prm[P_NOISE], prm[P_SMAX], prm[P_DMAX], flags)
+        euler_update(pos, image, theta, a, b, out, noise[step], prm, periodic, flags)
         worst = 0
         for i in range(flags.shape[0]):
             f = flags[i]

@@ -10,6 +10,7 @@ import numpy as np
 from .contacts import J_COLS
 from .geometry import LANES, mode_tables
 from .pairs import QUADRATURE_CODES
+from .records import CellList, NeighbourList, Rates, Scratch, Tables
 
 
 class Workspace:
@@ -33,8 +34,8 @@ class Workspace:
         self.N, self.K, self.M1 = int(N), int(K), int(M1)
         self.pair_buffer = bool(pair_buffer)
         self.pair_records = bool(pair_records) and self.pair_buffer
-        self.tables = mode_tables(self.K, self.M1)
-        self.scratch = (
+        self.tables = Tables(*mode_tables(self.K, self.M1))
+        self.scratch = Scratch(
             np.zeros((N, K)),  # R
             np.zeros((N, K)),  # dR
             np.zeros((N, 2 * K + LANES)),  # px
@@ -54,9 +55,9 @@ class Workspace:
         else:
             side = 2.0 * R0 / math.sqrt(3.0) * 0.999
             ncell = min(int(box[0] // side + 1) * int(box[1] // side + 1), max(4 * N, 9))
-        self.cl = (np.zeros(N, np.int64), np.zeros(ncell + 1, np.int64), np.zeros(N, np.int64))
+        self.cl = CellList(np.zeros(N, np.int64), np.zeros(ncell + 1, np.int64), np.zeros(N, np.int64))
         self.nl = self.neighbour_list(16)
-        self.out = (np.zeros((N, 2)), np.zeros(N), np.zeros((N, M1)), np.zeros((N, M1)))
+        self.out = Rates(np.zeros((N, 2)), np.zeros(N), np.zeros((N, M1)), np.zeros((N, M1)))
         self.flags = np.zeros(N, np.int64)
 
     def neighbour_list(self, capacity):
@@ -68,7 +69,7 @@ class Workspace:
         N = self.N
         rows = N * capacity if self.pair_buffer else 0
         records = rows if self.pair_records else 0
-        return (np.zeros((N, capacity), np.int64), np.zeros(N, np.int64), np.zeros((N, 2)), np.zeros(N),
+        return NeighbourList(np.zeros((N, capacity), np.int64), np.zeros(N, np.int64), np.zeros((N, 2)), np.zeros(N),
                 np.zeros(1, np.int64), np.zeros((rows, 4 + 2 * self.M1)), np.zeros((records, 4 + 2 * self.M1)),
                 np.zeros((records, J_COLS)))
 
