@@ -26,14 +26,19 @@ def contact_factor(chord, coef):
     return 1.0 / (x + math.sqrt(1.0 + x * x))
 
 
+@njit(inline="always", **NJIT)
+def body_angle(i, ux, uy, geo):
+    """cos and sin of the body-frame angle of the lab direction (ux, uy) for cell i."""
+    ct = geo[i, 2]
+    st = geo[i, 3]
+    return ux * ct + uy * st, uy * ct - ux * st
+
+
 @njit(**NJIT)
 def curvature(i, ux, uy, a, b, geo, R0):
     """Curvature of cell i's contour in the lab direction (ux, uy) (unit vector):
     (R² + 2R'² − R R'') / (R² + R'²)^(3/2), positive where convex."""
-    ct = geo[i, 2]
-    st = geo[i, 3]
-    c1 = ux * ct + uy * st  # cos and sin of the body-frame angle
-    s1 = uy * ct - ux * st
+    c1, s1 = body_angle(i, ux, uy, geo)
     cn = c1
     sn = s1
     r = geo[i, 0]
@@ -121,10 +126,7 @@ def radial_rate(i, ux, uy, w, X1, X2, row, oa, ob, usum, scale, a, b, geo, R0):
     rate ``w`` and the mode rates ``scale (X1[row, oa + m] - a_m usum / (2 a0))`` (and
     the same with ``X2``, ``ob``, ``b_m``): the shape modes, the area-keeping a0, and the
     turn of the body frame under the fixed direction (-w R')."""
-    ct = geo[i, 2]
-    st = geo[i, 3]
-    c1 = ux * ct + uy * st
-    s1 = uy * ct - ux * st
+    c1, s1 = body_angle(i, ux, uy, geo)
     cn = c1
     sn = s1
     a0 = geo[i, 0]
