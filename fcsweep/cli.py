@@ -396,12 +396,13 @@ def bench(config, compare, steps, warm, threads, workers, as_json):
                                "sweep_wall_seconds": wall, "threads": threads, "cpu_share_now": share},
                               indent=1))
         return
-    click.echo(f"{'N':>6} {'modes':>5} {'K':>4} {'quadrature':>10} {'runs':>5} {'cell-steps/s':>13} "
-               f"{'us/cell-step':>12} {'CPU time of these runs':>23}")
+    click.echo(f"{'N':>6} {'modes':>5} {'K':>4} {'quadrature':>10} {'integrator':>16} {'runs':>5} "
+               f"{'cell-steps/s':>13} {'us/cell-step':>12} {'CPU time of these runs':>23}")
     for r in rows:
         st = r.setting
-        click.echo(f"{st['N']:>6} {st['modes']:>5} {st['contour_points']:>4} {st['quadrature']:>10} {r.runs:>5} "
-                   f"{r.rate:>13.3e} {1e6 / r.rate:>12.3f} {format_duration(r.cpu_seconds):>23}")
+        click.echo(f"{st['N']:>6} {st['modes']:>5} {st['contour_points']:>4} {st['quadrature']:>10} "
+                   f"{st['integrator']:>16} {r.runs:>5} {r.rate:>13.3e} {1e6 / r.rate:>12.3f} "
+                   f"{format_duration(r.cpu_seconds):>23}")
     click.echo(f"sweep ({len(cfg.runs())} runs, {cfg.run.steps} steps each, its own quadratures): "
                f"{format_duration(cpu)} of CPU at {threads} thread(s) per run, writing included; "
                f"about {format_duration(wall)} wall on {processes} process(es)")

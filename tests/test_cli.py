@@ -122,3 +122,18 @@ def test_bench_times_each_setting_and_adds_up_the_sweep(tmp_path, monkeypatch):
     assert out["sweep_cpu_seconds"] == pytest.approx(own + overhead)
     assert out["sweep_wall_seconds"] >= (own + overhead) / 2 - 1e-12
     assert not (tmp_path / "out").exists()  # timing writes no run output
+
+
+def test_bench_times_each_integrator_and_compares_only_rules_it_can_use(tmp_path, monkeypatch):
+    """The integrator sets the step's cost: a sweep over integrators gets one row each;
+    contact-jacobi (arc only) is not timed with the binary rule of --compare."""
+    path = tmp_path / "b.yaml"
+    path.write_text("output: out\ngrid:\n  integrator: [euler, contact-jacobi]\nmodel:\n  N: 16\n  eta: 0.05\n"
+                    "  v0: 0.03\n  quadrature: arc\nrun:\n  steps: 300\n  sample_every: 100\n")
+    monkeypatch.chdir(tmp_path)
+    r = CliRunner().invoke(cli, ["bench", str(path), "--compare", "binary", "--compare", "arc", "--steps", "20",
+                                 "--warm", "20", "--json"])
+    assert r.exit_code == 0, r.output
+    out = json.loads(r.output[r.output.index("{"):])
+    got = {(row["integrator"], row["quadrature"]) for row in out["rows"]}
+    assert got == {("euler", "binary"), ("euler", "arc"), ("contact-jacobi", "arc")}

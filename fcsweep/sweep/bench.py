@@ -29,6 +29,7 @@ import time
 from dataclasses import dataclass
 
 from fcsweep.io.status import read_status
+from fcsweep.model.integrators import integrator_problem
 
 #: CPU seconds a run spends outside the step (trajectory, lock and status files, final
 #: rename) and per checkpoint (frames appended, checkpoint written), and the seconds
@@ -38,8 +39,9 @@ CHECKPOINT_CPU_S, CHECKPOINT_IO_S = 0.02, 0.03
 #: CPU seconds of starting ``fcsweep simulate``: imports, loading the compiled kernels.
 STARTUP_CPU_S = 2.0
 
-#: Parameters that set the cost of one step (besides the state the dynamics reaches).
-COST_KEYS = ("N", "modes", "contour_points", "quadrature")
+#: Parameters that set the cost of one step (besides the state the dynamics reaches;
+#: the contact integrators cost 1.5x Euler's step with the arc rule).
+COST_KEYS = ("N", "modes", "contour_points", "quadrature", "integrator")
 
 
 def measure_throughput(params, *, steps, warm, threads=None, repeats=3) -> float:
@@ -127,13 +129,17 @@ def bench_sweep(cfg, *, steps=200, warm=2000, quadratures=None, threads=1, log=N
     for specs in groups.values():
         base = dict(specs[0].params)
         rules = [base["quadrature"]] if not quadratures or base["modes"] == 0 else list(quadratures)
+        # a quadrature the run's integrator cannot use (contact-jacobi needs arc) is not compared
+        rules = [r for r in rules if r == base["quadrature"]
+                 or integrator_problem(base["integrator"], r, base["modes"]) is None]
         work = float(sum(s.params["N"] for s in specs)) * cfg.run.steps
         least = float(sum(s.params["N"] for s in specs)) * first_stop(cfg.run) if cfg.run.until else None
         for rule in rules:
             params = {**base, "quadrature": rule}
             per_block = max(int(steps * 1024 // params["N"]), 10)
             if log:
-                log(f"timing N={params['N']} modes={params['modes']} K={params['contour_points']} {rule} ...")
+                log(f"timing N={params['N']} modes={params['modes']} K={params['contour_points']} {rule} "
+                    f"{params['integrator']} ...")
             rate = measure_throughput(params, steps=per_block, warm=warm, threads=threads)
             rows.append(BenchRow({k: params[k] for k in COST_KEYS}, len(specs), work, rate,
                                  own=rule == base["quadrature"], cell_steps_min=least))
@@ -263,7 +269,7 @@ def estimate_costs(cfg, plans, *, log=None) -> tuple[list[tuple[float, float]], 
 
             compile_kernels(log)
             if log:
-                log("timing N={} modes={} K={} {} for the estimate ...".format(*key))
+                log("timing N={} modes={} K={} {} {} for the estimate ...".format(*key))
             members = groups[key]
             cost = probe_cost([members[0].params] + ([members[-1].params] if len(members) > 1 else []))
         costs[key] = cost
