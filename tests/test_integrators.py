@@ -341,3 +341,18 @@ def test_contact_jacobi_at_dt_0_01_beats_euler_at_0_005_also_in_the_soft_fluid(e
         return float(np.sqrt(np.mean(np.sum((x - ref) ** 2, axis=1))))
 
     assert err(_final("contact-jacobi", 0.01, eta, v0)) <= 0.6 * err(_final("euler", 0.005, eta, v0))
+
+
+@pytest.mark.parametrize("kw", [dict(eta=0.001, v0=0.06), dict(eta=0.03, v0=0.2), dict(eta=0.0, v0=0.1),
+                                dict(eta=0.03, v0=0.06, dt=0.05)])
+def test_contact_jacobi_hard_cases_stay_finite_and_admissible(kw):
+    # very low or no tension, high propulsion, ten times the paper's step: the factors
+    # (capped at JACOBI_MAX_FACTOR) never make the step blow up
+    from fcsweep.simulation import ADMISSIBLE_BOUND, PROJECTION_MARGIN
+
+    sim = Simulation.from_lattice(36, integrator="contact-jacobi", seed=3, Dr=0.1, **{"dt": 0.005, **kw})
+    sim.advance(1500)
+    s = sim.state
+    assert np.all(np.isfinite(s.pos)) and np.all(np.isfinite(s.a)) and np.all(np.isfinite(s.b))
+    amp = np.sqrt(s.a ** 2 + s.b ** 2).sum(axis=1)
+    assert amp.max() <= PROJECTION_MARGIN * ADMISSIBLE_BOUND * (1 + 1e-12)
