@@ -961,7 +961,7 @@ def run_memory_bytes(N: int, contour_points: int, modes: int, quadrature: str = 
     K, M1 = int(contour_points), max(int(modes) - 1, 0)
     per_cell = 2 * K + 5 * (2 * K + 4) + 5 + (4 + 2 * M1) + 3 + (3 + 2 * M1) + 1 + 2 * 16 + 4 + 2 * (5 + 2 * M1)
     if quadrature == "arc":
-        per_cell += 16 * (4 + 2 * M1)
+        per_cell += 16 * (4 + 2 * M1) + 16  # pair buffer and back index
         if integrator == "contact-jacobi":
             per_cell += 16 * (4 + 2 * M1 + 6)  # 6 = the columns of kernels.contacts' pair record
     return 8 * int(N) * per_cell + (64 << 20)

@@ -22,11 +22,11 @@ import numba
 import numpy as np
 
 from . import __version__
-from .kernels.step import LIST_FULL, NONFINITE, OK, P_DMAX, run_chunk
+from .kernels.records import P_DMAX
+from .kernels.step import LIST_FULL, NONFINITE, OK, run_chunk
 from .kernels.api import param_vector
 from .kernels.workspace import quadrature_code, workspace_for
-from .model.integrators import (DEFAULT_INTEGRATOR, INTEGRATORS, contact_coefficient, integrator_problem,
-                                jacobi_sweeps, kappa_floor)
+from .model.integrators import DEFAULT_INTEGRATOR, INTEGRATORS, contact_parameters, integrator_problem
 from .model.lattice import hexagonal_lattice, lattice_box
 from .model.shape import ADMISSIBLE_BOUND, PROJECTION_MARGIN, contour_points_problem, dt_problem
 
@@ -166,8 +166,7 @@ class Simulation:
             box=params.box, R0=params.R0, eta=params.eta, v0=params.v0, mu_theta=params.mu_theta,
             mu_shape=params.mu_shape, dt=params.dt, noise_amp=math.sqrt(2.0 * params.Dr * params.dt),
             smax=PROJECTION_MARGIN * ADMISSIBLE_BOUND, dmax=spacing,
-            contact=contact_coefficient(params.integrator, params.dt, params.modes, params.R0, params.mu_shape),
-            sweeps=jacobi_sweeps(params.integrator), kappa_floor=kappa_floor(params.integrator),
+            **contact_parameters(params.integrator, params.dt, params.modes, params.R0, params.mu_shape),
         )
 
     # ------------------------------------------------------------------ construction

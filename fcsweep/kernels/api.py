@@ -15,10 +15,8 @@ def param_vector(*, box, R0, eta, v0, mu_theta, mu_shape, dt=0.0, noise_amp=0.0,
                  contact=0.0, sweeps=0, kappa_floor=KAPPA_FLOOR):
     """Float parameter vector in the layout :func:`fcsweep.kernels.step.run_chunk` reads.
 
-    ``contact`` is the contact-implicit coefficient
-    (:func:`fcsweep.model.integrators.contact_coefficient`; 0 for explicit Euler),
-    ``sweeps`` the Jacobi sweeps of contact-jacobi (0 otherwise) and ``kappa_floor`` the
-    floor of the contact curvature (:func:`fcsweep.model.integrators.kappa_floor`).
+    ``contact``, ``sweeps`` and ``kappa_floor`` are an integrator's contact settings
+    (:func:`fcsweep.model.integrators.contact_parameters`; the defaults are Euler's).
     """
     prm = np.zeros(N_PARAMS)
     Lx, Ly = (1.0, 1.0) if box is None else (float(box[0]), float(box[1]))

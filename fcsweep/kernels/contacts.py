@@ -213,7 +213,7 @@ def record_arc_pair(i, j, e, tid, pbuf, pairbuf, ownbuf, pinfo, acc, a, b, geo, 
 
 
 @njit(inline="always", **NJIT)
-def add_share_rates(i, f, s, r, a, geo, R0, mu_theta, mu_shape, dpos, dth, da, db, b):
+def add_share_rates(i, f, s, r, a, b, geo, R0, mu_theta, mu_shape, dpos, dth, da, db):
     """Add ``f`` times the rates of the integrals ``s[r]`` (layout of ``acc``) to cell i."""
     M1 = a.shape[1]
     a0 = geo[i, 0]

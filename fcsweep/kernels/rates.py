@@ -229,7 +229,8 @@ def all_rates(pos, a, b, prm, periodic, quad, tables, scratch, nl, out, use_list
     The arc rule resolves each pair once, on the contour of its lower-index cell, and
     derives the other cell's integrals from the same crossings (exact action-reaction).
     With the list, cell i keeps j's share in ``pairbuf[i * cap + p]`` (``nbr[i, p] = j``)
-    and j collects it in a second pass; without it, the higher-index cell recomputes
+    and j collects it in a second pass (at ``back[j, p']``, built with the list); without
+    it, the higher-index cell recomputes
     the pair (small boxes only).
 
     With ``coef > 0`` (the ``contact-implicit`` integrator, :mod:`.contacts`) every
@@ -241,7 +242,7 @@ def all_rates(pos, a, b, prm, periodic, quad, tables, scratch, nl, out, use_list
     """
     cosn, sinn, cphi, sphi = tables
     R, dR, px, py, tx, ty, geo, W, tbuf, acc, pbuf = scratch
-    nbr, count, _, _, _, pairbuf, ownbuf, pinfo = nl
+    nbr, count, _, _, _, pairbuf, ownbuf, pinfo, back = nl
     dpos, dth, da, db = out
     Lx = prm[P_LX]
     Ly = prm[P_LY]
@@ -359,12 +360,11 @@ def all_rates(pos, a, b, prm, periodic, quad, tables, scratch, nl, out, use_list
                 i = nbr[j, p]
                 if i > j:
                     break
-                for q in range(count[i]):
-                    if nbr[i, q] == j:
-                        f = pinfo[i * cap + q, J_LAM] if jacobi else 1.0
-                        for k in range(acc.shape[1]):
-                            acc[j, k] += f * pairbuf[i * cap + q, k]
-                        break
+                if back[j, p] >= 0:
+                    e = i * cap + back[j, p]
+                    f = pinfo[e, J_LAM] if jacobi else 1.0
+                    for k in range(acc.shape[1]):
+                        acc[j, k] += f * pairbuf[e, k]
         cell_rates(j, a, b, geo, R, dR, px, py, cosn, sinn, cphi, sphi, W, acc, R0, eta, v0, mu_theta,
                    mu_shape, dpos, dth, da, db)
 
@@ -381,7 +381,7 @@ def contact_sweeps(a, b, prm, scratch, nl, out, sweeps):
     their lower-index cell, so the result does not depend on the number of threads.
     """
     geo = scratch.geo
-    nbr, count, _, _, _, pairbuf, ownbuf, pinfo = nl
+    nbr, count, _, _, _, pairbuf, ownbuf, pinfo, back = nl
     dpos, dth, da, db = out
     R0 = prm[P_R0]
     mu_theta = prm[P_MUT]
@@ -410,16 +410,11 @@ def contact_sweeps(a, b, prm, scratch, nl, out, sweeps):
             j = np.int64(jj)
             for p in range(count[j]):
                 i = nbr[j, p]
-                if i > j:
-                    e = j * cap + p
-                    if pinfo[e, J_DEPTH] > 0.0 and pinfo[e, J_DLAM] != 0.0:
-                        add_share_rates(j, pinfo[e, J_DLAM], ownbuf, e, a, geo, R0, mu_theta, mu_shape,
-                                        dpos, dth, da, db, b)
-                else:
-                    for q in range(count[i]):
-                        if nbr[i, q] == j:
-                            e = i * cap + q
-                            if pinfo[e, J_DEPTH] > 0.0 and pinfo[e, J_DLAM] != 0.0:
-                                add_share_rates(j, pinfo[e, J_DLAM], pairbuf, e, a, geo, R0, mu_theta,
-                                                mu_shape, dpos, dth, da, db, b)
-                            break
+                # j's own share of its pairs with higher cells, else the share i keeps for j
+                own = i > j
+                if not own and back[j, p] < 0:
+                    continue
+                e = j * cap + p if own else i * cap + back[j, p]
+                if pinfo[e, J_DEPTH] > 0.0 and pinfo[e, J_DLAM] != 0.0:
+                    add_share_rates(j, pinfo[e, J_DLAM], ownbuf if own else pairbuf, e, a, b, geo, R0, mu_theta,
+                                    mu_shape, dpos, dth, da, db)

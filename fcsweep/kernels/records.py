@@ -23,8 +23,10 @@ Scratch = namedtuple("Scratch", "R dR px py tx ty geo W tbuf acc pbuf")
 #: The cell list: cell of each particle, start of each cell's members, members.
 CellList = namedtuple("CellList", "cell_of cell_start cell_members")
 #: The Verlet list and what lives per list pair: the arc rule's share of the other
-#: cell (``pairbuf``), contact-jacobi's own shares and records (``ownbuf``, ``pinfo``).
-NeighbourList = namedtuple("NeighbourList", "nbr count ref_pos ref_rb valid pairbuf ownbuf pinfo")
+#: cell (``pairbuf``) and the position of each pair in the other cell's row (``back``:
+#: ``nbr[nbr[i, p], back[i, p]] == i``), contact-jacobi's own shares and records
+#: (``ownbuf``, ``pinfo``).
+NeighbourList = namedtuple("NeighbourList", "nbr count ref_pos ref_rb valid pairbuf ownbuf pinfo back")
 #: The deterministic rates of every cell.
 Rates = namedtuple("Rates", "dpos dth da db")
 

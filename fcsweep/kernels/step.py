@@ -23,9 +23,8 @@ from .geometry import geometry
 from .options import NJIT
 from .pairs import QUAD_ARC
 from .rates import all_rates, contact_sweeps
-from .records import (P_DMAX, P_DT, P_LX, P_LY, P_NOISE, P_R0, P_SKIN, P_SMAX,  # noqa: F401 (re-exported)
-                      P_SWEEPS)
-from .verlet import build_verlet, needs_rebuild
+from .records import P_DMAX, P_DT, P_LX, P_LY, P_NOISE, P_R0, P_SKIN, P_SMAX, P_SWEEPS
+from .verlet import build_back, build_verlet, needs_rebuild
 
 #: Status codes returned by :func:`run_chunk`.
 OK = 0
@@ -104,7 +103,7 @@ def compute_rates(pos, theta, a, b, prm, periodic, quad, tables, scratch, cl, nl
     """
     geo = scratch.geo
     cell_of, cell_start, cell_members = cl
-    nbr, count, ref_pos, ref_rb, valid, _, _, pinfo = nl
+    nbr, count, ref_pos, ref_rb, valid, _, _, pinfo, back = nl
     geometry(theta, a, b, prm[P_R0], tables, scratch, quad == QUAD_ARC)
     Lx = prm[P_LX]
     Ly = prm[P_LY]
@@ -123,6 +122,8 @@ def compute_rates(pos, theta, a, b, prm, periodic, quad, tables, scratch, cl, nl
                 if not build_verlet(pos, geo, Lx, Ly, skin, nx, ny, cell_of, cell_start, cell_members,
                                     nbr, count, ref_pos, ref_rb):
                     return False
+                if back.shape[0] > 0:
+                    build_back(nbr, count, back)
                 valid[0] = 1
         else:
             valid[0] = 0

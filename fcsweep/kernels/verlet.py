@@ -78,3 +78,18 @@ def build_verlet(pos, geo, Lx, Ly, skin, nx, ny, cell_of, cell_start, cell_membe
         if count[i] > cap:
             ok = False
     return ok
+
+
+@njit(parallel=True, **NJIT)
+def build_back(nbr, count, back):
+    """``back[i, p] = q`` with ``nbr[j, q] == i`` for ``j = nbr[i, p]`` (-1 if j does not
+    list i), once per list build: the per-step passes that collect a pair's share from
+    the other cell's row look it up instead of searching the row."""
+    for i in prange(nbr.shape[0]):
+        for p in range(count[i]):
+            j = nbr[i, p]
+            back[i, p] = -1
+            for q in range(count[j]):
+                if nbr[j, q] == i:
+                    back[i, p] = q
+                    break

@@ -62,16 +62,17 @@ class Workspace:
 
     def neighbour_list(self, capacity):
         """(nbr, count, reference positions, reference bounding radii, valid flag, pair
-        buffer, own shares, pair records) for up to ``capacity`` neighbours per cell.  The
-        pair buffer holds, for the arc rule, the share of list pair (i, p) that cell
-        nbr[i, p] collects; contact-jacobi keeps i's share and the pair's record
-        (:mod:`.contacts`) in the last two."""
+        buffer, own shares, pair records, back index) for up to ``capacity`` neighbours
+        per cell.  The pair buffer holds, for the arc rule, the share of list pair (i, p)
+        that cell nbr[i, p] collects, found through the back index; contact-jacobi keeps
+        i's share and the pair's record (:mod:`.contacts`)."""
         N = self.N
         rows = N * capacity if self.pair_buffer else 0
         records = rows if self.pair_records else 0
         return NeighbourList(np.zeros((N, capacity), np.int64), np.zeros(N, np.int64), np.zeros((N, 2)), np.zeros(N),
-                np.zeros(1, np.int64), np.zeros((rows, 4 + 2 * self.M1)), np.zeros((records, 4 + 2 * self.M1)),
-                np.zeros((records, J_COLS)))
+                             np.zeros(1, np.int64), np.zeros((rows, 4 + 2 * self.M1)),
+                             np.zeros((records, 4 + 2 * self.M1)), np.zeros((records, J_COLS)),
+                             np.zeros((N if self.pair_buffer else 0, capacity), np.int64))
 
     def grow_neighbour_list(self):
         """Double the neighbour-list capacity (after a LIST_FULL status); forces a rebuild."""

@@ -89,16 +89,6 @@ def integrator_problem(integrator, quadrature, modes):
     return None
 
 
-def kappa_floor(integrator) -> float:
-    """Floor of the contact curvature sum (units 1/R0) that ``integrator`` uses."""
-    return JACOBI_KAPPA_FLOOR if check_integrator(integrator) == "contact-jacobi" else KAPPA_FLOOR
-
-
-def jacobi_sweeps(integrator) -> int:
-    """Jacobi sweeps per step of ``integrator`` (0 but for ``"contact-jacobi"``)."""
-    return JACOBI_SWEEPS if check_integrator(integrator) == "contact-jacobi" else 0
-
-
 def contact_coefficient(integrator, dt, modes, R0=1.0, mu_shape=1.0) -> float:
     """``coef`` of ``x = coef / L`` for a contact of chord L (0 for explicit Euler).
 
@@ -155,6 +145,17 @@ def quasi_static_depth(u, G, c, dt):
     return (u / (G * c)) ** 2 + dt * u
 
 
+def contact_parameters(integrator, dt, modes, R0=1.0, mu_shape=1.0) -> dict:
+    """The kernels' contact settings of ``integrator`` (keywords of
+    :func:`fcsweep.kernels.api.param_vector`): ``contact``
+    (:func:`contact_coefficient`), ``sweeps`` (Jacobi sweeps per step, 0 but for
+    contact-jacobi) and ``kappa_floor`` (floor of the curvature sum, units 1/R0)."""
+    jacobi = check_integrator(integrator) == "contact-jacobi"
+    return {"contact": contact_coefficient(integrator, dt, modes, R0, mu_shape),
+            "sweeps": JACOBI_SWEEPS if jacobi else 0,
+            "kappa_floor": JACOBI_KAPPA_FLOOR if jacobi else KAPPA_FLOOR}
+
+
 def jacobi_factor(depth, u_own, u_other, dt, lam_max=None):
     """Factor of a contact under ``"contact-jacobi"``: the positive root of
     λ² δ = δ + dt u_other + dt u_own λ, 0 where δ + dt u_other <= 0, at most ``lam_max``
@@ -196,7 +197,7 @@ def depth_rate(direction, theta, a, b, rates, i, j, R0=1.0):
 
 
 __all__ = ["INTEGRATORS", "DEFAULT_INTEGRATOR", "KAPPA_FLOOR", "JACOBI_SWEEPS", "JACOBI_MAX_FACTOR",
-           "JACOBI_KAPPA_FLOOR", "check_integrator", "integrator_problem", "kappa_floor", "jacobi_sweeps",
+           "JACOBI_KAPPA_FLOOR", "check_integrator", "integrator_problem", "contact_parameters",
            "jacobi_factor", "radial_rate", "depth_rate", "contact_coefficient",
            "contour_curvature", "pair_coefficient", "contact_factor", "quasi_static_depth", "contacts",
            "contact_persistence"]
