@@ -183,11 +183,11 @@ def jacobi_factor(depth, u_own, u_other, dt, lam_max):
 
 
 @njit(inline="always", **NJIT)
-def record_arc_pair(i, j, e, tid, pbuf, pairbuf, ownbuf, pinfo, acc, a, b, geo, R0, mu_theta, mu_shape, dt,
-                    kfloor, lam_max):
+def record_arc_pair(i, j, e, tid, pbuf, pairbuf, ownbuf, pinfo, acc, a, b, geo, R0, mu_theta, mu_shape, kfloor):
     """Keep the unscaled integrals of list pair ``e`` (i's from ``pbuf[tid]``, j's in
     ``pairbuf[e]``), its contact direction, depth δ = L² κ / 8 and own depth rate in
-    ``pinfo[e]``, and add i's share times the factor with no approach rate to ``acc[i]``."""
+    ``pinfo[e]``, and add i's share to ``acc[i]``: the sweeps start from the explicit
+    forces (factor 1; 0 for a pair without contact)."""
     fx = pbuf[tid, 0]
     fy = pbuf[tid, 1]
     L = math.sqrt(fx * fx + fy * fy)
@@ -200,16 +200,14 @@ def record_arc_pair(i, j, e, tid, pbuf, pairbuf, ownbuf, pinfo, acc, a, b, geo, 
     uy = -fy / L
     kap = max((curvature(i, ux, uy, a, b, geo, R0) + curvature(j, -ux, -uy, a, b, geo, R0)) * R0, kfloor) / R0
     u_own = share_depth_rate(i, j, ux, uy, pbuf, tid, pairbuf, e, a, b, geo, R0, mu_theta, mu_shape)
-    depth = L * L * kap / 8.0
-    lam = 1.0
-    pinfo[e, J_LAM] = lam
+    pinfo[e, J_LAM] = 1.0
     pinfo[e, J_UX] = ux
     pinfo[e, J_UY] = uy
-    pinfo[e, J_DEPTH] = depth
+    pinfo[e, J_DEPTH] = L * L * kap / 8.0
     pinfo[e, J_UOWN] = u_own
     for k in range(acc.shape[1]):
         ownbuf[e, k] = pbuf[tid, k]
-        acc[i, k] += lam * pbuf[tid, k]
+        acc[i, k] += pbuf[tid, k]
 
 
 @njit(inline="always", **NJIT)

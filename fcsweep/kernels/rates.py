@@ -253,8 +253,6 @@ def all_rates(pos, a, b, prm, periodic, quad, tables, scratch, nl, out, use_list
     mu_shape = prm[P_MUS]
     coef = prm[P_CONTACT]
     kfloor = prm[P_KFLOOR]
-    dt = prm[P_DT]
-    lam_max = prm[P_LAMMAX]
     N = pos.shape[0]
     arc = quad == QUAD_ARC and a.shape[1] > 0
     points = coef > 0.0 and a.shape[1] > 0 and not arc
@@ -296,7 +294,7 @@ def all_rates(pos, a, b, prm, periodic, quad, tables, scratch, nl, out, use_list
                              dst, row, pairbuf, i * cap + p)
                     if jacobi:
                         record_arc_pair(i, j, i * cap + p, tid, pbuf, pairbuf, ownbuf, pinfo, acc, a, b, geo, R0,
-                                        mu_theta, mu_shape, dt, kfloor, lam_max)
+                                        mu_theta, mu_shape, kfloor)
                     elif coef > 0.0:
                         add_scaled_arc_pair(i, j, tid, pbuf, acc, i, pairbuf, i * cap + p, a, b, geo, R0, coef,
                                             kfloor)
