@@ -236,7 +236,7 @@ def _value_colorbar(fig, axes, values, label):
     cmap = ListedColormap(_colors(n))
     sm = plt.cm.ScalarMappable(norm=BoundaryNorm(np.arange(n + 1) - 0.5, n), cmap=cmap)
     cb = fig.colorbar(sm, ax=axes, ticks=np.arange(n), aspect=30, pad=0.02)
-    cb.ax.set_yticklabels([f"{v:g}" for v in values])
+    cb.ax.set_yticklabels([_grid_label(v) for v in values])
     cb.set_label(label)
     return cb
 
@@ -253,6 +253,11 @@ def _panels(n, width=3.2, height=2.7, sharey=True):
     return fig, flat[:n]
 
 
+def _grid_label(v) -> str:
+    """A grid value in three digits (log-spaced grids give 0.0562341 and the like)."""
+    return f"{v:.3g}"
+
+
 def _grid_ticks(axis, values, most=6):
     """Ticks at the grid values of a log axis (decades alone rarely label a 0.01-0.1
     sweep), in three digits; past ``most`` values only every k-th one is labelled, so
@@ -260,7 +265,7 @@ def _grid_ticks(axis, values, most=6):
     values = np.asarray(values, dtype=float)
     step = int(np.ceil(values.size / most))
     axis.set_ticks(values)
-    axis.set_ticklabels([f"{v:.3g}" if i % step == 0 else "" for i, v in enumerate(values)])
+    axis.set_ticklabels([_grid_label(v) if i % step == 0 else "" for i, v in enumerate(values)])
     axis.set_minor_formatter(NullFormatter())
 
 
@@ -339,7 +344,7 @@ def phase_diagram(ds, *, select=None):
     ax.set_ylim(ey[0], ey[-1])
     ax.set_xlabel(r"membrane tension $\eta$")
     ax.set_ylabel(r"self-propulsion $v_0$")
-    ax.set_title(caption(ds, select), fontsize=8.5, loc="left")
+    ax.set_title(caption(ds, select, 95), fontsize=8.5, loc="left")  # 95 characters span the axes and legend
     ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
     return fig
 
