@@ -40,19 +40,30 @@ def drift_subtracted(unwrapped: np.ndarray) -> np.ndarray:
     return d - d.mean(axis=1, keepdims=True)
 
 
-def _freud_msd(disp: np.ndarray) -> np.ndarray:
-    """Window MSD of displacements ``disp`` (T, n, 2) with freud, shape (T,)."""
+def _freud_window(disp: np.ndarray):
     T, n, _ = disp.shape
     p3 = np.zeros((T, n, 3), dtype=float)
     p3[..., :2] = disp
     m = freud.msd.MSD(mode="window")
     m.compute(p3)
-    out = np.array(m.msd, dtype=float)
+    return m
+
+
+def _freud_msd(disp: np.ndarray) -> np.ndarray:
+    """Window MSD of displacements ``disp`` (T, n, 2) with freud, shape (T,)."""
+    out = np.array(_freud_window(disp).msd, dtype=float)
     out[0] = 0.0
     return out
 
 
-def _mean_displacement(disp: np.ndarray) -> np.ndarray:
+def particle_msd(disp: np.ndarray) -> np.ndarray:
+    """Window MSD of every particle of ``disp`` (T, n, 2) with freud, shape (T, n)."""
+    out = np.array(_freud_window(disp).particle_msd, dtype=float)
+    out[0] = 0.0
+    return out
+
+
+def mean_displacement(disp: np.ndarray) -> np.ndarray:
     """Window- and particle-averaged displacement vector per lag, shape (T, 2)."""
     c = disp.mean(axis=1)  # (T, 2) mean over particles
     T = c.shape[0]
@@ -91,7 +102,7 @@ def msd_curve(unwrapped: np.ndarray, *, subtract_drift: bool = True, n_blocks: i
     if T < 2:
         raise ValueError("need at least two frames for an MSD")
     disp = drift_subtracted(x) if subtract_drift else x - x[:1]
-    mean_sq = np.sum(_mean_displacement(disp) ** 2, axis=-1)
+    mean_sq = np.sum(mean_displacement(disp) ** 2, axis=-1)
     B = max(1, min(int(n_blocks), N))
     blocks = np.empty((B, T))
     weights = np.empty(B)
