@@ -56,17 +56,35 @@ def test_free_abp_error_matches_scatter_over_realisations():
     assert 0.8 < ratio < 1.6
 
 
-def test_collective_motion_error_matches_scatter_over_realisations():
-    """Box-wide displacement modes with random-walk amplitudes move cells together. The
-    time-block error matches the scatter over 30 independent realisations (measured
-    0.96; bounds ~3 sigma of the ratio's sampling error), while cell blocks alone,
-    sharing the same few amplitudes, are several times too small."""
+@pytest.mark.parametrize("blocks", [1, 2, 8])
+def test_collective_motion_error_matches_scatter_over_realisations(blocks):
+    """Box-wide displacement modes with random-walk amplitudes move cells together; 20
+    independent realisations give the true spread.  The cell error, counted with the
+    spatial inefficiency of the squared displacements, matches it at any number of time
+    blocks, one included (measured 0.89-1.08; the old cell blocks read 0.17-0.19 with one
+    block); bounds 0.5-2 as the issue asks, ~3 sigma of the ratio of 20 values.  The
+    effective number of independent cells N / g is a handful, as it should be."""
     t = np.arange(400) * 1.0
-    res = [estimate_diffusion(t, collective_positions(16, 400, rng=np.random.default_rng(s)), Dr=0.0)
-           for s in range(30)]
+    res = [estimate_diffusion(t, collective_positions(16, 400, rng=np.random.default_rng(s)), Dr=0.0,
+                              max_time_blocks=blocks) for s in range(20)]
+    assert res[0].n_time_blocks == blocks
     scatter = np.std([r.D for r in res], ddof=1)
-    assert 0.7 < np.mean([r.D_err for r in res]) / scatter < 1.4
-    assert np.mean([r.D_err_cells for r in res]) < 0.3 * scatter
+    assert 0.5 < np.sqrt(np.mean(np.square([r.D_err for r in res]))) / scatter < 2.0
+    assert 256 / np.mean([r.g_cells for r in res]) < 10
+
+
+@pytest.mark.parametrize("k, persistence", [(0.0, 4.0), (0.0, 2.0), (0.1, 8.0), (0.1, 2.0)])
+def test_abp_error_matches_scatter_at_two_and_four_blocks(k, persistence):
+    """Free and caged ABPs over 8/Dr cut into 2 or 4 time blocks (1 block: tests above):
+    quoted error / spread of 16 realisations in [0.7, 1.6] (measured 1.08-1.24); the
+    spatial inefficiency of independent particles stays close to 1."""
+    res = [estimate_diffusion(np.arange(401) * 2.0, abp_positions(256, 401, 2.0, v0=V0, Dr=DR, k=k, substeps=4,
+                                                                  rng=np.random.default_rng(200 + s)),
+                              Dr=DR, min_block_persistence=persistence) for s in range(16)]
+    assert res[0].n_time_blocks == int(8 / persistence)
+    ratio = np.sqrt(np.mean(np.square([r.D_err for r in res]))) / np.std([r.D for r in res], ddof=1)
+    assert 0.7 < ratio < 1.6
+    assert np.mean([r.g_cells for r in res]) < 1.5
 
 
 def test_run_shorter_than_the_persistence_time_is_undetermined():

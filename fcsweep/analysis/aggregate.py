@@ -33,10 +33,13 @@ from pathlib import Path
 
 import numpy as np
 import xarray as xr
+from scipy.special import ndtr
 
 from fcsweep import __version__
 from fcsweep.analysis.phase import (MIN_CONFIDENCE, PERCOLATION_FLAGS, PHASE_FLAGS, classify_percolation,
                                     classify_phase, flag_attrs)
+from fcsweep.analysis.cage import BOUND_FACTOR
+from fcsweep.analysis.diffusion import D_EFF_SOLID
 from fcsweep.analysis.percolation import fisher_observables
 from fcsweep.analysis.stats import combine
 from fcsweep.analysis.pipeline import (ANALYSIS_ERROR_FILE, ANALYSIS_FILE, CURVES, DATASET_FILE, _read_status,
@@ -61,9 +64,26 @@ META = {
     "q_bin_bounds": ("shape index q, bin edges (CF bounds: units inherited from q_bin)", ""),
     "cluster_size": ("defect cluster size (cells)", "1"),
     "D_eff": ("effective diffusion D_s / D0, D0 = v0^2 / (2 Dr)", "1"),
-    "D_eff_err": ("1-sigma error of D_eff: larger of the time-block and cell-block errors", "1"),
+    "D_eff_err": ("1-sigma error of D_eff: the cell error, or the larger of it and the time-block error "
+                  "with 4 or more time blocks", "1"),
     "D_eff_err_time": ("error of D_eff from the scatter of time blocks", "1"),
-    "D_eff_err_cells": ("error of D_eff from the scatter of cell subsets within time blocks", "1"),
+    "D_eff_err_cells": ("error of D_eff from the scatter of the cells' own MSD slopes, counted with the spatial "
+                        "inefficiency D_eff_g_cells", "1"),
+    "D_eff_g_cells": ("spatial statistical inefficiency of the squared displacements: N / g cells move "
+                      "independently", "1"),
+    "neighbour_spacing": ("neighbour spacing a of a triangular lattice at the cells' density (units of R0)", "1"),
+    "cage_lag": ("lag of the cage-breaking test: the whole analysed window (time units)", "1"),
+    "cage_msd_ratio": ("cage-relative mean squared displacement at cage_lag over a^2 (> 1: cages broken)", "1"),
+    "cage_msd_ratio_err": ("1-sigma error of cage_msd_ratio (spatially contiguous cell blocks)", "1"),
+    "cage_broken_probability": ("probability that cage_msd_ratio > 1", "1"),
+    "cage_d_eff_bound": ("D_eff a broken cage stands for: a^2 / (4 cage_lag D0)", "1"),
+    "F_s_window": ("self-intermediate scattering function of cage-relative displacements at k = 2 pi / a "
+                   "and the lag cage_lag", "1"),
+    "tau_alpha": ("structural relaxation time: lag where F_s first falls below 1/e (time units; NaN: not "
+                  "within the window)", "1"),
+    "cage_lag_time": ("lag time of the cage-relative curves F_s and cage_msd (time units)", "1"),
+    "F_s": ("self-intermediate scattering function F_s(2 pi / a, t) of cage-relative displacements", "1"),
+    "cage_msd": ("cage-relative mean squared displacement (R0^2)", "1"),
     "D_eff_late": ("D_eff from the upper half of the MSD fit window (settling check)", "1"),
     "D_eff_late_err": ("1-sigma error of D_eff_late", "1"),
     "D_eff_long": ("D_eff at another block length: the whole run, or half blocks (settling check)", "1"),
@@ -95,8 +115,9 @@ META = {
     "msd": ("drift-subtracted mean squared displacement (R0^2)", "1"),
     "G6": ("bond-orientational correlation Re <psi6_i psi6_j*>(r)", "1"),
     "Gr": ("translational correlation G_r(dx, 0) along the mean hexatic axis, ideal gas = 1", "1"),
-    "phase": ("phase label: solid if D_eff < 1e-3, else soft fluid if <q> > 3.81, else fluid; "
-              "undetermined below the required confidence", "1"),
+    "phase": ("phase label: solid if D_eff < 1e-3, else soft fluid if <q> > 3.81, else fluid; fluid and "
+              "soft fluid need broken cages, solid a trustworthy D_eff; undetermined below the required "
+              "confidence", "1"),
     "phase_confidence": ("probability of the most probable phase given the errors", "1"),
     "phase_reason": ("why the phase label is what it is", ""),
     "percolated": ("defect percolation label: rho_d > 1/2; undetermined below the required confidence", "1"),
@@ -123,9 +144,12 @@ SCALAR_VARS = ("D_eff", "D_eff_err", "D_eff_err_time", "D_eff_err_cells", "D_eff
                "D_s", "D_s_err", "D0", "fit_t_min", "fit_t_max",
                "q_mean", "q_mean_err", "q_std", "q_frac_above", "q_frac_above_err", "rho_d", "rho_d_err",
                "largest_cluster_fraction", "largest_cluster_fraction_err", "psi6", "psi6_err",
-               "n_frames", "t_start", "t_end", "t_equilibrated", "phase_confidence", "percolated_confidence")
+               "n_frames", "t_start", "t_end", "t_equilibrated", "phase_confidence", "percolated_confidence",
+               "D_eff_g_cells", "neighbour_spacing", "cage_lag", "cage_msd_ratio", "cage_msd_ratio_err",
+               "cage_broken_probability", "cage_d_eff_bound", "F_s_window", "tau_alpha")
 #: Observables reduced over replicates (``<name>_rmean``, ``_rmean_err``, ``_rchi2``).
-REPLICATE_VARS = ("D_eff", "q_mean", "q_frac_above", "rho_d", "largest_cluster_fraction", "psi6")
+REPLICATE_VARS = ("D_eff", "q_mean", "q_frac_above", "rho_d", "largest_cluster_fraction", "psi6",
+                  "cage_msd_ratio")
 #: Per-run strings, written as CF character arrays.
 STRING_VARS = ("run_id", "seed", "phase_reason", "percolated_reason", "tau_fisher_reason")
 
@@ -364,6 +388,8 @@ def _reduce_replicates(ds: xr.Dataset, settings) -> None:
             "units": "1"})
     ok = ds["msd_diffusive"].fillna(0).astype(bool) & ds["msd_long_enough"].fillna(0).astype(bool)
     ok = ok.transpose(..., "replicate").values.all(axis=-1)
+    bound = ds["cage_d_eff_bound"].transpose(..., "replicate").values
+    bound_ok = np.all(np.isfinite(bound) & (bound >= BOUND_FACTOR * D_EFF_SOLID), axis=-1)
     dims = [d for d in ds["phase"].dims if d != "replicate"]
     shape = ok.shape
     phase = np.full(shape, -1, dtype=np.int8)
@@ -372,8 +398,12 @@ def _reduce_replicates(ds: xr.Dataset, settings) -> None:
     cconf = np.full(shape, np.nan)
     for idx in np.ndindex(shape):
         D, q, r = reduced["D_eff"][idx], reduced["q_mean"][idx], reduced["rho_d"][idx]
+        c = reduced["cage_msd_ratio"][idx]
+        p_broken = float(ndtr((c[0] - 1.0) / c[1])) if bound_ok[idx] and c[1] > 0 else float("nan")
         lab = classify_phase(D[0], D[1], q[0], q[1], diffusion_ok=bool(ok[idx]),
-                             diffusion_note="a replicate's D_eff is not trustworthy", min_confidence=conf)
+                             diffusion_note="a replicate's D_eff is not trustworthy", cage_broken=p_broken,
+                             cage_note=f"replicate-mean cage-relative MSD {c[0]:.3g} +- {c[1]:.2g} a^2",
+                             min_confidence=conf)
         phase[idx], pconf[idx] = lab.code, lab.confidence
         lab = classify_percolation(r[0], r[1], min_confidence=conf)
         perc[idx], cconf[idx] = lab.code, lab.confidence

@@ -20,6 +20,14 @@ threshold), else *undetermined* (code 3 for the phase, 2 for percolation). A lab
 whose diffusion estimate is not trustworthy (run too short for the persistence time,
 MSD slope not settled) is undetermined whatever the numbers say. The confidence
 reported is the probability of the most probable label; the reason says what decided.
+
+With cage evidence (the analysis pipeline always gives it) the rule is asymmetric,
+because fluidity can be shown in a finite window and solidity only bounded: *not
+solid* needs the cells to have left their cages, ``P(broken) >= min_confidence``
+(:mod:`fcsweep.analysis.cage`, where a broken cage also bounds D_eff far above 1e-3),
+and then P(fluid) = P(broken) (1 - P(<q> > 3.81)), P(soft fluid) = P(broken) P(<q> >
+3.81); *solid* needs a trustworthy D_eff with P(solid) >= min_confidence and no broken
+cage. Evidence on both sides, or neither, is undetermined with the reason.
 """
 
 from __future__ import annotations
@@ -111,8 +119,9 @@ def _fmt(x: float, e: float) -> str:
 
 
 def classify_phase(D_eff, D_eff_err, q_mean, q_mean_err, *, diffusion_ok: bool = True,
-                   diffusion_note: str = "", min_confidence: float = MIN_CONFIDENCE,
-                   d_solid: float = D_EFF_SOLID, q_star: float = Q_STAR) -> Label:
+                   diffusion_note: str = "", cage_broken: float | None = None, cage_note: str = "",
+                   min_confidence: float = MIN_CONFIDENCE, d_solid: float = D_EFF_SOLID,
+                   q_star: float = Q_STAR) -> Label:
     """Phase label of one run or point with its confidence and the reason.
 
     Parameters
@@ -121,7 +130,15 @@ def classify_phase(D_eff, D_eff_err, q_mean, q_mean_err, *, diffusion_ok: bool =
         Estimates and 1-sigma errors.
     diffusion_ok : bool
         False when the D_eff estimate cannot be trusted (run too short, MSD not
-        diffusive): the label is then undetermined with ``diffusion_note`` as reason.
+        diffusive): D_eff then decides nothing, and ``diffusion_note`` is the reason.
+    cage_broken : float, optional
+        Probability that the cells left their cages within the window
+        (:mod:`fcsweep.analysis.cage`; NaN where that evidence does not bound D_eff above
+        the threshold). Given, the rule is asymmetric: *not solid* needs
+        ``cage_broken >= min_confidence`` (fluidity is shown in a finite window), *solid*
+        needs a trustworthy ``D_eff`` below ``d_solid`` (solidity is only bounded) and no
+        broken cage; otherwise undetermined, with ``cage_note`` in the reason. Not given
+        (None), D_eff decides both sides.
     min_confidence : float
         Probability the most probable label needs.
 
@@ -130,6 +147,9 @@ def classify_phase(D_eff, D_eff_err, q_mean, q_mean_err, *, diffusion_ok: bool =
     Label
     """
     D, De, q, qe = (float(v) for v in (D_eff, D_eff_err, q_mean, q_mean_err))
+    if cage_broken is not None:
+        return _classify_with_cages(D, De, q, qe, diffusion_ok, diffusion_note, float(cage_broken), cage_note,
+                                    min_confidence, d_solid, q_star)
     if not np.isfinite(D):
         return Label(PHASE_UNKNOWN, float("nan"), "D_eff not available")
     if not np.isfinite(De):
@@ -153,6 +173,50 @@ def classify_phase(D_eff, D_eff_err, q_mean, q_mean_err, *, diffusion_ok: bool =
             why = f"<q> = {_fmt(q, qe)} too close to {q_star:g}"
         return Label(PHASE_UNDETERMINED, conf, f"{why} (P = {conf:.2f} < {min_confidence:.2f})")
     return Label(int(best), conf, f"P({phase_name(best)}) = {conf:.3f}")
+
+
+def _classify_with_cages(D, De, q, qe, diffusion_ok, diffusion_note, p_broken, cage_note, min_confidence,
+                         d_solid, q_star) -> Label:
+    """The asymmetric rule of :func:`classify_phase` (cage evidence given)."""
+    d_known = diffusion_ok and np.isfinite(D) and np.isfinite(De)
+    p_solid_d = 1.0 - _p_above(D, De, d_solid) if d_known else float("nan")
+    if np.isfinite(p_broken) and p_broken >= min_confidence:
+        if d_known and p_solid_d >= min_confidence:
+            return Label(PHASE_UNDETERMINED, float(max(p_broken, p_solid_d)),
+                         f"cages broken (P = {p_broken:.3f}) but D_eff = {_fmt(D, De)} reads solid "
+                         f"(P = {p_solid_d:.3f}); a longer run decides")
+        if not np.isfinite(q):
+            return Label(PHASE_UNKNOWN, float("nan"), "<q> not available")
+        if not np.isfinite(qe):
+            return Label(PHASE_UNDETERMINED, float("nan"), "<q> has no error estimate")
+        p_soft = _p_above(q, qe, q_star)
+        p = {PHASE_SOFT_FLUID: p_broken * p_soft, PHASE_FLUID: p_broken * (1.0 - p_soft)}
+        best = max(p, key=lambda k: p[k])
+        conf = float(p[best])
+        if conf < min_confidence:
+            return Label(PHASE_UNDETERMINED, conf, f"cages broken (P = {p_broken:.3f}) but <q> = {_fmt(q, qe)} "
+                                                   f"too close to {q_star:g} (P = {conf:.2f} < {min_confidence:.2f})")
+        return Label(int(best), conf, f"cages broken (P = {p_broken:.3f}); P({phase_name(best)}) = {conf:.3f}")
+    if d_known and p_solid_d >= min_confidence:
+        conf = float(p_solid_d * (1.0 - p_broken if np.isfinite(p_broken) else 1.0))
+        if conf < min_confidence:
+            return Label(PHASE_UNDETERMINED, conf, f"D_eff = {_fmt(D, De)} reads solid but the cages may be "
+                                                   f"broken (P = {p_broken:.2f}); a longer run decides")
+        return Label(PHASE_SOLID, conf, f"P(solid) = {conf:.3f}; cages intact ({cage_note})"
+                     if cage_note else f"P(solid) = {conf:.3f}")
+    conf = float(max(p_solid_d, 1.0 - p_solid_d)) if np.isfinite(p_solid_d) else float("nan")
+    if not diffusion_ok:
+        why = diffusion_note or "D_eff estimate not trustworthy"
+    elif not np.isfinite(D):
+        return Label(PHASE_UNKNOWN, float("nan"), "D_eff not available")
+    elif not np.isfinite(De):
+        why = "D_eff has no error estimate"
+    elif p_solid_d <= 1.0 - min_confidence:
+        why = f"D_eff = {_fmt(D, De)} reads fluid"
+    else:
+        why = f"D_eff = {_fmt(D, De)} too close to the solid threshold {d_solid:g} (P = {conf:.2f})"
+    cage = cage_note or "no evidence that the cells left their cages"
+    return Label(PHASE_UNDETERMINED, conf, f"{why}; {cage}")
 
 
 def classify_percolation(rho_d, rho_d_err, *, min_confidence: float = MIN_CONFIDENCE,

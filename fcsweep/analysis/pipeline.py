@@ -18,7 +18,11 @@ Analysis settings (``DEFAULT_SETTINGS``; stored with every result):
   two starts (``t_equilibrated``);
 - D_s from ``max_time_blocks`` time blocks of at least ``min_block_persistence / Dr``,
   fitted to the active-Brownian MSD form from ``fit_start`` x half a block on, error
-  from time blocks and ``n_blocks`` cell subsets (see :func:`fcsweep.analysis.diffusion.estimate_diffusion`);
+  from time blocks and the scatter of the cells' own slopes with their spatial inefficiency
+  (see :func:`fcsweep.analysis.diffusion.estimate_diffusion`);
+- cage breaking over the same frames: cage-relative MSD against the squared neighbour
+  spacing, F_s and tau_alpha (:mod:`fcsweep.analysis.cage`); the phase rule takes a fluid
+  only from broken cages and a solid only from a trustworthy D_eff (:mod:`fcsweep.analysis.phase`);
 - q on up to ``shape_frames`` evenly spaced frames; Voronoi defects and clusters and
   |Psi6| on up to ``structure_frames`` frames; G6 and Gr on up to
   ``correlation_frames`` frames (they cost O(N * pairs within L/2)); every frame
@@ -40,7 +44,7 @@ import h5py
 import numpy as np
 
 from fcsweep import __version__
-from fcsweep.analysis import diffusion, order, shapes, voronoi
+from fcsweep.analysis import cage, diffusion, order, shapes, voronoi
 from fcsweep.analysis.msd import log_lag_indices, msd_curve
 from fcsweep.analysis.phase import (MIN_CONFIDENCE, PHASE_SOLID, classify_percolation, classify_phase,
                                     phase_probabilities)
@@ -60,7 +64,6 @@ DEFAULT_SETTINGS = {
     "fit_start": 0.2,
     "max_time_blocks": 8,
     "min_block_persistence": 8.0,
-    "n_blocks": 16,
     "label_confidence": round(MIN_CONFIDENCE, 4),
     "subtract_drift": True,
     "msd_lags": 120,
@@ -77,7 +80,9 @@ DEFAULT_SETTINGS = {
 SCALARS = ("D_s", "D_s_err", "D0", "D_eff", "D_eff_err", "D_eff_err_time", "D_eff_err_cells",
            "D_eff_late", "D_eff_late_err", "D_eff_long", "D_eff_long_err", "msd_diffusive", "msd_long_enough",
            "n_time_blocks",
-           "block_span", "fit_t_min", "fit_t_max",
+           "block_span", "fit_t_min", "fit_t_max", "D_eff_g_cells",
+           "neighbour_spacing", "cage_lag", "cage_msd_ratio", "cage_msd_ratio_err", "cage_broken_probability",
+           "cage_d_eff_bound", "F_s_window", "tau_alpha",
            "q_mean", "q_mean_err", "q_std", "q_frac_above", "q_frac_above_err", "rho_d", "rho_d_err",
            "largest_cluster_fraction", "largest_cluster_fraction_err", "psi6", "psi6_err",
            "n_frames", "t_start", "t_end", "t_equilibrated",
@@ -86,7 +91,7 @@ SCALARS = ("D_s", "D_s_err", "D0", "D_eff", "D_eff_err", "D_eff_err_time", "D_ef
 REASONS = ("phase_reason", "percolated_reason")
 #: Curves stored as datasets of ``/curves``: name -> coordinate dataset name.
 CURVES = {"msd": "lag_time", "q_hist": "q_bin", "G6": "r", "Gr": "dx",
-          "cluster_size_distribution": "cluster_size"}
+          "cluster_size_distribution": "cluster_size", "F_s": "cage_lag_time", "cage_msd": "cage_lag_time"}
 
 
 class AnalysisError(RuntimeError):
@@ -236,8 +241,9 @@ def compute_observables(traj, settings: dict, *, curves: bool = True,
     est = diffusion.estimate_diffusion(
         traj.time[eq] - traj.time[eq[0]], x, Dr=Dr, max_time_blocks=int(settings["max_time_blocks"]),
         min_block_persistence=float(settings["min_block_persistence"]),
-        n_cell_blocks=int(settings["n_blocks"]), fit_start=float(settings["fit_start"]),
+        fit_start=float(settings["fit_start"]),
         settle_tol=0.1 * diffusion.D_EFF_SOLID * diffusion.free_diffusion(v0, Dr))
+    cb = cage.cage_breaking(traj.time[eq] - traj.time[eq[0]], x, boxr)
     del x
     D0 = diffusion.free_diffusion(v0, Dr)
     conv = (lambda d: diffusion.effective_diffusion(d, 0.0, v0, Dr)[0])
@@ -247,7 +253,10 @@ def compute_observables(traj, settings: dict, *, curves: bool = True,
               D_eff_long=conv(est.D_long), D_eff_long_err=conv(est.D_long_err),
               msd_diffusive=float(est.diffusive), msd_long_enough=float(est.long_enough),
               n_time_blocks=float(est.n_time_blocks), block_span=est.block_span,
-              fit_t_min=est.t_min, fit_t_max=est.t_max,
+              fit_t_min=est.t_min, fit_t_max=est.t_max, D_eff_g_cells=est.g_cells,
+              neighbour_spacing=cb.spacing, cage_lag=cb.lag, cage_msd_ratio=cb.ratio,
+              cage_msd_ratio_err=cb.ratio_err, cage_broken_probability=cb.p_broken,
+              cage_d_eff_bound=cb.d_eff_bound(v0, Dr), F_s_window=cb.fs, tau_alpha=cb.tau_alpha,
               n_frames=float(eq.size), t_start=float(traj.time[frames[0]]),
               t_end=float(traj.time[frames[-1]]), t_equilibrated=float(traj.time[eq[0]]))
 
@@ -264,15 +273,40 @@ def compute_observables(traj, settings: dict, *, curves: bool = True,
     conf = float(settings["label_confidence"])
     if not note:
         note = _block_length_conflict(sc, conf)
+    p_broken, cage_note = cage_evidence(sc)
     lab = classify_phase(sc["D_eff"], sc["D_eff_err"], sc["q_mean"], sc["q_mean_err"],
-                         diffusion_ok=not note, diffusion_note=note, min_confidence=conf)
+                         diffusion_ok=not note, diffusion_note=note, cage_broken=p_broken,
+                         cage_note=cage_note, min_confidence=conf)
     sc.update(phase=float(lab.code), phase_confidence=lab.confidence, phase_reason=lab.reason)
     lab = classify_percolation(sc["rho_d"], sc["rho_d_err"], min_confidence=conf)
     sc.update(percolated=float(lab.code), percolated_confidence=lab.confidence,
               percolated_reason=lab.reason)
+    if curves:
+        cv["F_s"] = (cb.lags, cb.F_s)
+        cv["cage_msd"] = (cb.lags, cb.cr_msd)
     extra = {"n_sides_counts": ds["n_sides_counts"], "frames": frames,
              "structure_frames": vf, "shape_frames": sf}
     return sc, cv, extra
+
+
+def cage_evidence(sc: dict) -> tuple[float, str]:
+    """Probability that the cells left their cages, as the phase rule takes it, and a note.
+
+    NaN (no evidence either way) where the cage test could not be made, or where a broken
+    cage would not bound D_eff at least ``cage.BOUND_FACTOR`` times above the solid
+    threshold (very fast or very persistent cells, a short window).
+    """
+    ratio, err, p = sc["cage_msd_ratio"], sc["cage_msd_ratio_err"], sc["cage_broken_probability"]
+    lag, bound = sc["cage_lag"], sc["cage_d_eff_bound"]
+    if not (np.isfinite(ratio) and np.isfinite(p)):
+        return float("nan"), "cage test not possible (too few frames or cells)"
+    where = f"cage-relative MSD {ratio:.3g} +- {err:.2g} a^2 over {lag:.4g} time units"
+    if not (np.isfinite(bound) and bound >= cage.BOUND_FACTOR * diffusion.D_EFF_SOLID):
+        return float("nan"), (f"{where}; a broken cage here bounds D_eff only above {bound:.2g}, "
+                              f"less than {cage.BOUND_FACTOR:g} x the solid threshold")
+    if p >= 0.5:
+        return float(p), where
+    return float(p), f"no cage broken within the window ({where}); a longer run decides"
 
 
 def _block_length_conflict(sc: dict, confidence: float) -> str:

@@ -36,6 +36,8 @@ from emcee.autocorr import function_1d, auto_window
 C_WINDOW = 5.0
 #: Fewer effective samples than this and an error estimate is not trusted.
 MIN_EFFECTIVE_SAMPLES = 4.0
+#: Combined errors by which a cut start must differ from the rest (else nothing is cut).
+SIGNIFICANT = 3.0
 
 
 @dataclass(frozen=True)
@@ -120,7 +122,9 @@ def detect_equilibration(x, *, candidates: int = 11) -> int:
     -------
     int
         Index of the first sample to keep: the candidate ``t0`` that minimises
-        ``var(x[t0:]) / (n - t0)``; 0 for series shorter than 8 samples.
+        ``var(x[t0:]) / (n - t0)``, provided the discarded start's mean differs from the
+        rest's by more than ``SIGNIFICANT`` combined errors (a stationary series is
+        kept whole); 0 for series shorter than 8 samples.
     """
     x = np.asarray(x, dtype=float).ravel()
     n = x.size
@@ -128,7 +132,17 @@ def detect_equilibration(x, *, candidates: int = 11) -> int:
         return 0
     starts = np.unique(np.linspace(0, n // 2, max(int(candidates), 2)).astype(int))
     score = [x[t0:].var() / (n - t0) for t0 in starts]
-    return int(starts[int(np.argmin(score))])
+    t0 = int(starts[int(np.argmin(score))])
+    if t0 < 4 or n - t0 < 4:
+        return t0
+    # keep a stationary series whole: cut only a start that differs from the rest
+    # (a start drawn from the rest's own distribution scatters by its error of the mean)
+    head, tail = x[:t0], x[t0:]
+    var, tau = max(float(tail.var(ddof=1)), 0.0), integrated_time(tail)
+    err = np.sqrt(var * tau / tail.size + var * min(tau, head.size) / head.size)
+    if abs(float(head.mean()) - float(tail.mean())) <= SIGNIFICANT * err:
+        return 0
+    return t0
 
 
 def time_average(x, *, equilibrate: bool = True, c: float = C_WINDOW) -> TimeAverage:

@@ -1,0 +1,166 @@
+"""Structural relaxation: have the cells left their cages within the window?
+
+Fluidity can be shown in a finite window, solidity only bounded. :func:`cage_breaking`
+measures the *cage-relative* displacement of every cell (its displacement minus the mean
+displacement of its Voronoi neighbours at the time origin; Vivek et al., PNAS 114, 1850
+(2017); Illing et al., PNAS 114, 1856 (2017)), which removes the long-wavelength
+collective motion that moves a 2-D crystal without breaking it, and compares its mean
+square at the lag ``t*`` (the whole analysed window) with the squared neighbour spacing
+``a^2``, ``a = (2 A / (sqrt(3) N))^(1/2)`` (the spacing of a triangular lattice of that
+density; 1.95 R0 at area fraction 0.95). The cage is broken when cells have, on average,
+moved farther than a neighbour spacing relative to their first shell, with probability
+``P(CR-MSD(t*) > a^2)`` from the scatter over spatially contiguous blocks of cells.
+
+Why this is the paper's criterion. A broken cage at lag ``t*`` means ``D_s >~ a^2 / (4 t*)``
+(persistent motion only makes ``MSD / 4t`` smaller than the long-time slope; sub-diffusion
+after the cage breaks can make it larger by a factor, which the margin below covers),
+i.e. ``D_eff >~ a^2 / (4 t* D0)``. The label rule accepts cage breaking as evidence of
+"not solid" only where that bound is at least ``BOUND_FACTOR`` (10) times the solid
+threshold ``1e-3`` (docs/statistics.md lists the bound at the shipped parameters: 0.02-0.4).
+A caged solid never reaches ``a^2``: a harmonic cage holds the MSD at ``2 v0^2 / (k (k + Dr))``
+(0.16 R0^2 at k = 0.1, v0 = 0.03, Dr = 0.01, against ``a^2 = 3.8 R0^2``).
+
+Also reported: the self-intermediate scattering function of the cage-relative
+displacements, ``F_s(k, t) = < J0(k |dr_i(t)|) >`` (the isotropic 2-D average of
+``cos k . dr``) at ``k = 2 pi / a``, and the structural relaxation time ``tau_alpha`` where
+it first falls below ``1/e`` (NaN when it does not within the window).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.special import j0, ndtr
+
+from fcsweep.analysis.voronoi import voronoi_neighbors
+
+#: The cage-breaking bound on D_eff must exceed the solid threshold this many times.
+BOUND_FACTOR = 10.0
+#: Time origins averaged per lag (evenly spaced over the window; one at the whole window).
+N_ORIGINS = 12
+#: Spatially contiguous blocks per side for the error (``BLOCKS_PER_SIDE ** 2`` blocks).
+BLOCKS_PER_SIDE = 4
+
+
+def neighbour_spacing(n_cells: int, box) -> float:
+    """Spacing ``a`` of a triangular lattice of ``n_cells`` points in ``box`` (Lx, Ly)."""
+    area = float(box[0]) * float(box[1])
+    return float(np.sqrt(2.0 * area / (np.sqrt(3.0) * n_cells)))
+
+
+@dataclass(frozen=True)
+class CageBreaking:
+    """Result of :func:`cage_breaking` (lengths in the positions' unit).
+
+    Attributes
+    ----------
+    spacing : float
+        Neighbour spacing ``a``.
+    lag : float
+        Lag ``t*`` of the test (the whole window; one time origin).
+    ratio, ratio_err : float
+        Cage-relative MSD at ``t*`` over ``a^2``, and its 1-sigma error.
+    p_broken : float
+        ``P(ratio > 1)`` (Gaussian).
+    fs, tau_alpha : float
+        ``F_s(2 pi / a, t*)`` and the lag where ``F_s`` first falls below ``1/e``.
+    lags, cr_msd, F_s : ndarray
+        The curves over lags (time units).
+    """
+
+    spacing: float
+    lag: float
+    ratio: float
+    ratio_err: float
+    p_broken: float
+    fs: float
+    tau_alpha: float
+    lags: np.ndarray
+    cr_msd: np.ndarray
+    F_s: np.ndarray
+
+    def d_eff_bound(self, v0: float, Dr: float) -> float:
+        """``a^2 / (4 t* D0)``: the D_eff a broken cage at ``t*`` stands for (NaN if D0 is 0)."""
+        D0 = float(v0) ** 2 / (2.0 * float(Dr)) if Dr > 0 else float("inf")
+        if not (np.isfinite(D0) and D0 > 0 and self.lag > 0):
+            return float("nan")
+        return float(self.spacing ** 2 / (4.0 * self.lag * D0))
+
+
+def _lag_frames(T: int, n: int = 16) -> np.ndarray:
+    top = max(1, T - 1)
+    return np.unique(np.round(np.geomspace(1, top, n)).astype(int))
+
+
+def cage_breaking(time, unwrapped, box, *, spacing: float | None = None,
+                  n_origins: int = N_ORIGINS) -> CageBreaking:
+    """Cage-relative MSD against the neighbour spacing, and ``F_s`` (see module doc).
+
+    Parameters
+    ----------
+    time : ndarray, shape (T,)
+        Equally spaced frame times of the analysed window.
+    unwrapped : ndarray, shape (T, N, 2)
+        Unwrapped centroids.
+    box : (Lx, Ly)
+        Periodic box (for the Voronoi neighbours and the spacing).
+    spacing : float, optional
+        Neighbour spacing (default :func:`neighbour_spacing`).
+    n_origins : int
+        Time origins averaged.
+
+    Returns
+    -------
+    CageBreaking
+    """
+    t = np.asarray(time, dtype=float)
+    x = np.asarray(unwrapped, dtype=float)
+    T, N = x.shape[:2]
+    a = float(spacing) if spacing is not None else neighbour_spacing(N, box)
+    nan = float("nan")
+    if T < 3 or N < 4:
+        e = np.zeros(0)
+        return CageBreaking(a, nan, nan, nan, nan, nan, nan, e, e, e)
+    h = float(t[1] - t[0])
+    lags = _lag_frames(T)
+    top = int(lags[-1])
+    k = 2.0 * np.pi / a
+    L = np.asarray(box, dtype=float)[:2]
+    side = np.floor(np.mod(x[0], L) / L * BLOCKS_PER_SIDE).astype(int) % BLOCKS_PER_SIDE
+    block = side[:, 0] * BLOCKS_PER_SIDE + side[:, 1]
+    shells = {}
+    msd = np.zeros(lags.size)
+    fs = np.zeros(lags.size)
+    per_cell_top = np.zeros(N)
+    for q, m in enumerate(lags):
+        origins = np.unique(np.linspace(0, T - 1 - m, min(n_origins, T - m)).astype(int))
+        for o in origins:
+            if o not in shells:
+                vn = voronoi_neighbors(np.mod(x[o], L), L)
+                shells[o] = (vn.i, vn.j, np.maximum(np.bincount(vn.i, minlength=N), 1)[:, None])
+            i, j, deg = shells[o]
+            d = x[o + m] - x[o]
+            nb = np.zeros((N, 2))
+            np.add.at(nb, i, d[j])
+            rel = d - nb / deg
+            s = np.sum(rel * rel, axis=1)
+            msd[q] += s.mean() / origins.size
+            fs[q] += j0(k * np.sqrt(s)).mean() / origins.size
+            if m == top:
+                per_cell_top += s / origins.size
+    blocks = np.array([per_cell_top[block == b].mean() for b in np.unique(block)])
+    ratio = float(msd[-1] / a ** 2)
+    err = float(blocks.std(ddof=1) / np.sqrt(blocks.size) / a ** 2) if blocks.size > 1 else nan
+    p = float(ndtr((ratio - 1.0) / err)) if err > 0 else float(ratio > 1.0)
+    below = np.flatnonzero(fs < np.exp(-1.0))
+    if below.size == 0:
+        tau = nan
+    elif below[0] == 0:
+        tau = float(lags[0] * h)
+    else:
+        i = below[0]  # log-linear interpolation between the bracketing lags
+        f0, f1 = fs[i - 1], fs[i]
+        w = (f0 - np.exp(-1.0)) / (f0 - f1)
+        tau = float(np.exp(np.log(lags[i - 1] * h) + w * (np.log(lags[i] * h) - np.log(lags[i - 1] * h))))
+    return CageBreaking(a, float(top * h), ratio, err, p, float(fs[-1]), tau, lags * h, msd, fs)
