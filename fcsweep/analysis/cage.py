@@ -5,7 +5,8 @@ measures the *cage-relative* displacement of every cell (its displacement minus 
 displacement of its Voronoi neighbours at the time origin; Vivek et al., PNAS 114, 1850
 (2017); Illing et al., PNAS 114, 1856 (2017)), which removes the long-wavelength
 collective motion that moves a 2-D crystal without breaking it, and compares its mean
-square at the lag ``t*`` (the whole analysed window) with the squared neighbour spacing
+square at a lag ``t*`` (the first lag at which it exceeds ``a^2`` by three errors, else
+the whole analysed window: the earliest clear crossing gives the strongest bound below) with the squared neighbour spacing
 ``a^2``, ``a = (2 A / (sqrt(3) N))^(1/2)`` (the spacing of a triangular lattice of that
 density; 1.95 R0 at area fraction 0.95). The cage is broken when cells have, on average,
 moved farther than a neighbour spacing relative to their first shell, with probability
@@ -58,7 +59,8 @@ class CageBreaking:
     spacing : float
         Neighbour spacing ``a``.
     lag : float
-        Lag ``t*`` of the test (the whole window; one time origin).
+        Lag ``t*`` of the test: the first at which the cage-relative MSD exceeds ``a^2``
+        by three errors, else the whole window (one time origin).
     ratio, ratio_err : float
         Cage-relative MSD at ``t*`` over ``a^2``, and its 1-sigma error.
     p_broken : float
@@ -124,7 +126,6 @@ def cage_breaking(time, unwrapped, box, *, spacing: float | None = None,
         return CageBreaking(a, nan, nan, nan, nan, nan, nan, e, e, e)
     h = float(t[1] - t[0])
     lags = _lag_frames(T)
-    top = int(lags[-1])
     k = 2.0 * np.pi / a
     L = np.asarray(box, dtype=float)[:2]
     side = np.floor(np.mod(x[0], L) / L * BLOCKS_PER_SIDE).astype(int) % BLOCKS_PER_SIDE
@@ -132,7 +133,7 @@ def cage_breaking(time, unwrapped, box, *, spacing: float | None = None,
     shells = {}
     msd = np.zeros(lags.size)
     fs = np.zeros(lags.size)
-    per_cell_top = np.zeros(N)
+    per_cell = np.zeros((lags.size, N))
     for q, m in enumerate(lags):
         origins = np.unique(np.linspace(0, T - 1 - m, min(n_origins, T - m)).astype(int))
         for o in origins:
@@ -147,11 +148,15 @@ def cage_breaking(time, unwrapped, box, *, spacing: float | None = None,
             s = np.sum(rel * rel, axis=1)
             msd[q] += s.mean() / origins.size
             fs[q] += j0(k * np.sqrt(s)).mean() / origins.size
-            if m == top:
-                per_cell_top += s / origins.size
-    blocks = np.array([per_cell_top[block == b].mean() for b in np.unique(block)])
-    ratio = float(msd[-1] / a ** 2)
-    err = float(blocks.std(ddof=1) / np.sqrt(blocks.size) / a ** 2) if blocks.size > 1 else nan
+            per_cell[q] += s / origins.size
+    labels = np.unique(block)
+    blocks = np.stack([per_cell[:, block == b].mean(axis=1) for b in labels], axis=1) / a ** 2
+    ratios = msd / a ** 2
+    errs = blocks.std(axis=1, ddof=1) / np.sqrt(labels.size) if labels.size > 1 else np.full(lags.size, nan)
+    # the test lag: the first at which the cages are broken by 3 errors, else the whole window
+    clear = np.flatnonzero(ratios - 3.0 * errs > 1.0)
+    at = int(clear[0]) if clear.size else lags.size - 1
+    ratio, err = float(ratios[at]), float(errs[at])
     p = float(ndtr((ratio - 1.0) / err)) if err > 0 else float(ratio > 1.0)
     below = np.flatnonzero(fs < np.exp(-1.0))
     if below.size == 0:
@@ -163,4 +168,4 @@ def cage_breaking(time, unwrapped, box, *, spacing: float | None = None,
         f0, f1 = fs[i - 1], fs[i]
         w = (f0 - np.exp(-1.0)) / (f0 - f1)
         tau = float(np.exp(np.log(lags[i - 1] * h) + w * (np.log(lags[i] * h) - np.log(lags[i - 1] * h))))
-    return CageBreaking(a, float(top * h), ratio, err, p, float(fs[-1]), tau, lags * h, msd, fs)
+    return CageBreaking(a, float(lags[at] * h), ratio, err, p, float(fs[at]), tau, lags * h, msd, fs)
