@@ -10,8 +10,11 @@ A sweep file has six top-level sections (see ``results_schema.md`` and the READM
     run: {steps: 1000000, sample_every: 1000, checkpoint_every: 100000, transient: 0.2,
           until: {check_every: 100000, min_steps: 200000, confidence: 0.95}}   # until optional
 
-Everything is validated before anything runs; every problem raises :class:`ConfigError`
-whose message names the key, the offending value and what is allowed.
+Everything is validated before anything runs; the problems of a file raise one
+:class:`ConfigError` listing them all, each naming the key, the offending value and what
+is allowed.  Numbers are read as YAML 1.2 and Python read them (``5e-3``, ``2.0e3``; PyYAML
+alone follows YAML 1.1, where these are strings); integer settings take floats with an
+integral value.  :func:`json_schema` describes the format for editors.
 
 Run identity
 ------------
@@ -27,9 +30,13 @@ gets the same noise.
 
 The run length (``run.steps``, ``run.until``) is not part of the id: raising the step
 count continues a finished run instead of recomputing it (see
-:func:`fcsweep.sweep.runner.fingerprint_of`).  Grid points added by ``fcsweep refine``
-are read from ``<output>/refinement.json`` (:mod:`fcsweep.io.refinement`) and follow the
-product grid's runs, so existing run indices never change.
+:func:`fcsweep.sweep.lifecycle.fingerprint_of`).  Grid points added by ``fcsweep refine``
+live with the results in ``<output>/refinement.json`` (:mod:`fcsweep.io.refinement`; the
+user's YAML is never edited) and follow the product grid's runs, so existing run indices
+never change.  They are read once, when the config is bound to its output directory
+(:func:`load_config`, :meth:`SweepConfig.with_output`, :meth:`SweepConfig.with_refinement`;
+:func:`parse_config` returns an unbound config), so that :meth:`SweepConfig.runs` is a
+pure function of the config and all commands of one process see the same runs.
 
 Ranges ``{start, stop, num}`` expand with ``numpy.linspace`` (``log: true``:
 ``numpy.geomspace``) and each value is rounded to 12 significant digits, so a range and
@@ -78,21 +85,108 @@ __all__ = [
     "builtin_demo_path",
     "PARAM_RANGES",
     "MAX_RUNS",
+    "MAX_LISTED",
     "check_step_sizes",
     "check_memory",
     "run_memory_bytes",
     "machine_memory_bytes",
+    "json_schema",
 ]
+
+
+def _one_line(message) -> str:
+    return re.sub(r"\s*[\r\n]+\s*", " ", str(message)).strip()
 
 
 class ConfigError(ValueError):
     """An invalid sweep configuration; the message names key, value and what is allowed.
 
-    The message is always one line (line breaks of quoted parser messages are folded).
+    Every problem is one line (line breaks of quoted parser messages are folded).  A file
+    with one problem gives a one-line message, exactly ``"<source>: <problem>"`` when
+    ``source`` is given; a file with several gives a first line
+    ``"<source>: <n> problems:"`` and then one indented line per problem (at most
+    :data:`MAX_LISTED`, then how many more).
+
+    Parameters
+    ----------
+    message : str
+        The problem (ignored when ``problems`` is given).
+    problems : sequence of str, optional
+        Several problems of one file, reported together.
+    source : str, optional
+        The file they concern, prefixed to the message.
+
+    Attributes
+    ----------
+    problems : tuple of str
+        The problems, one line each, without ``source``.
+    source : str
     """
 
-    def __init__(self, message: str):
-        super().__init__(re.sub(r"\s*[\r\n]+\s*", " ", str(message)).strip())
+    def __init__(self, message: str = "", *, problems=None, source: str = ""):
+        self.problems = tuple(_one_line(p) for p in (problems if problems else [message]))
+        self.source = str(source)
+        prefix = f"{self.source}: " if self.source else ""
+        if len(self.problems) == 1:
+            text = prefix + self.problems[0]
+        else:
+            shown = self.problems[:MAX_LISTED]
+            more = len(self.problems) - len(shown)
+            text = f"{prefix}{len(self.problems)} problems:" + "".join(f"\n  {p}" for p in shown)
+            if more:
+                text += f"\n  ... and {more} more"
+        super().__init__(text)
+
+    def with_source(self, source: str) -> "ConfigError":
+        """The same problems, prefixed with ``source`` (replacing any source it had)."""
+        return ConfigError(problems=self.problems, source=source)
+
+
+#: Most problems one :class:`ConfigError` lists (the first line still counts all).
+MAX_LISTED = 30
+
+#: Sentinel of a value whose check failed (its problem is recorded in a :class:`_Problems`).
+_FAILED = object()
+
+
+class _Problems:
+    """The problems of one file, collected so that all are reported at once."""
+
+    def __init__(self):
+        self.messages: list[str] = []
+
+    @property
+    def count(self) -> int:
+        return len(self.messages)
+
+    def add(self, exc: ConfigError) -> None:
+        for p in exc.problems:
+            if p not in self.messages:
+                self.messages.append(p)
+
+    def attempt(self, fn, *args, **kwargs):
+        """``fn(*args, **kwargs)``, or :data:`_FAILED` with its ConfigError recorded."""
+        try:
+            return fn(*args, **kwargs)
+        except ConfigError as exc:
+            self.add(exc)
+            return _FAILED
+
+    def keys(self, d: Mapping, allowed, where: str) -> set:
+        """Record every key of ``d`` not in ``allowed``; return the keys suggested instead
+        (a section misspelled as a suggested key is not reported missing as well)."""
+        suggested = set()
+        for k in d:
+            if k not in allowed:
+                self.add(_unknown(k, allowed, where))
+                hint = _suggest(k, allowed)
+                if hint is not None:
+                    suggested.add(hint)
+        return suggested
+
+    def raise_if_any(self, source: str = "") -> None:
+        if self.messages:
+            raise ConfigError(problems=self.messages, source=source)
 
 
 #: Model parameters and their defaults (docs/model.md); ``None`` means "must be given".
@@ -246,6 +340,11 @@ class SweepConfig:
     store : StoreSettings
     source : str
         Path of the YAML file, or ``"<string>"``.
+    refined : tuple of dict
+        Grid points ``fcsweep refine`` recorded in ``<output>/refinement.json``, read
+        once when the config is bound to its output directory (:func:`load_config`,
+        :meth:`with_output`, :meth:`with_refinement`), so that :meth:`runs` reads no file
+        and every call in a process gives the same runs.
     """
 
     output: Path
@@ -258,6 +357,7 @@ class SweepConfig:
     description: str = ""
     source: str = "<string>"
     log_axes: tuple[str, ...] = ()
+    refined: tuple[Mapping[str, Any], ...] = ()
 
     @property
     def swept(self) -> list[str]:
@@ -266,23 +366,43 @@ class SweepConfig:
 
     def runs(self) -> list[RunSpec]:
         """All runs: grid points in grid order (last key fastest), replicates innermost,
-        then the points ``fcsweep refine`` added (``<output>/refinement.json``) in the
-        order they were added.
+        then the points ``fcsweep refine`` added (:attr:`refined`) in the order they
+        were added.  A pure function of the config: it reads no file.
 
         Raises
         ------
         ConfigError
-            If the refinement file does not fit this grid.
+            If the refinement points do not fit this grid.
         """
         return _expand(self)
 
     def run_dir(self, run_id: str) -> Path:
         """Directory of one run: ``output / "runs" / run_id``."""
-        return self.output / "runs" / run_id
+        from fcsweep.io.sweepdir import run_path
+
+        return run_path(self.output, run_id)
 
     def with_output(self, output: str | os.PathLike) -> "SweepConfig":
-        """Copy of this config writing to another directory (ids are unchanged)."""
-        return dataclasses.replace(self, output=Path(output))
+        """Copy of this config bound to another directory, with that directory's refinement
+        points (ids are unchanged)."""
+        return dataclasses.replace(self, output=Path(output)).with_refinement()
+
+    def with_refinement(self) -> "SweepConfig":
+        """Copy of this config with the points now in ``<output>/refinement.json``.
+
+        Raises
+        ------
+        ConfigError
+            If the file cannot be read or is not a refinement file.
+        """
+        from fcsweep.io.refinement import RefinementError
+        from fcsweep.io.sweepdir import refinement_points
+
+        try:
+            points = refinement_points(self.output)
+        except RefinementError as exc:
+            raise ConfigError(str(exc)) from None
+        return dataclasses.replace(self, refined=points)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-able dict of the validated config (what trajectory files record)."""
@@ -345,7 +465,34 @@ def _construct_int(loader, node):
                           "no setting takes more than 20") from None
 
 
-_UniqueKeyLoader.add_constructor("tag:yaml.org,2002:int", _construct_int)
+# Numbers as YAML 1.2 (core schema) and Python read them.  PyYAML follows YAML 1.1, where
+# a float needs a dot and a signed exponent: there ``5e-3``, ``1E-2``, ``1e3`` and ``2.0e3``
+# are strings.  Added here: a decimal with an exponent, sign optional -- exactly what
+# Python's float() accepts (``_`` only between digits) -- and ``0o17`` octal (YAML 1.2,
+# Python).  ``017`` is 17 (YAML 1.2) and not 15 (YAML 1.1 octal).  Everything YAML 1.1
+# already reads as a number (``.inf``, ``1_000``, ``0x1f``, ``0b101``) reads as before.
+_DIGITS = r"[0-9](?:_?[0-9])*"
+_EXPONENT_FLOAT = re.compile(
+    rf"^[-+]?(?:{_DIGITS}(?:\.(?:{_DIGITS})?)?|\.{_DIGITS})[eE][-+]?{_DIGITS}$")
+_OCTAL_12 = re.compile(r"^[-+]?0o[0-7](?:_?[0-7])*$")
+_UniqueKeyLoader.add_implicit_resolver("tag:yaml.org,2002:float", _EXPONENT_FLOAT, list("-+.0123456789"))
+_UniqueKeyLoader.add_implicit_resolver("tag:yaml.org,2002:int", _OCTAL_12, list("-+0"))
+
+
+def _construct_int_12(loader, node):
+    text = str(node.value)
+    digits = text.lstrip("+-").replace("_", "")
+    if _OCTAL_12.match(text) or (len(digits) > 1 and digits[0] == "0" and digits.isdigit()):
+        sign = -1 if text.startswith("-") else 1
+        base = 8 if _OCTAL_12.match(text) else 10
+        body = digits[2:] if base == 8 else digits
+        if len(body) > 4300:
+            return _construct_int(loader, node)  # the digit-limit message
+        return sign * int(body, base)
+    return _construct_int(loader, node)
+
+
+_UniqueKeyLoader.add_constructor("tag:yaml.org,2002:int", _construct_int_12)
 
 
 def builtin_demo_path() -> Path:
@@ -358,17 +505,22 @@ def builtin_demo_path() -> Path:
 def load_config(path: str | os.PathLike) -> SweepConfig:
     """Read and validate a sweep YAML file.
 
+    The config is bound to its output directory: it holds the points recorded in
+    ``<output>/refinement.json`` (:meth:`SweepConfig.with_refinement`).
+
     Raises
     ------
     ConfigError
-        If the file is missing, not YAML, or any value is invalid.
+        If the file is missing, not YAML, or any value is invalid, or the output's
+        refinement file cannot be read.
     """
     path = Path(path)
-    return parse_config(_read_text(path), source=str(path))
+    return parse_config(_read_text(path), source=str(path)).with_refinement()
 
 
 def parse_config(text: str, source: str = "<string>") -> SweepConfig:
-    """Validate a sweep given as YAML text. See :func:`load_config`."""
+    """Validate a sweep given as YAML text. See :func:`load_config` (unlike it, no
+    refinement points are read: :meth:`SweepConfig.with_refinement` adds them)."""
     if len(text) > MAX_CONFIG_BYTES:
         raise ConfigError(f"{source}: {len(text)} characters; a sweep file has at most {MAX_CONFIG_BYTES}")
     try:
@@ -389,7 +541,7 @@ def parse_config(text: str, source: str = "<string>") -> SweepConfig:
         _check_structure(data)
         return _validate(data, source)
     except ConfigError as exc:
-        raise ConfigError(f"{source}: {exc}") from None
+        raise exc.with_source(source) from None
     except (ArithmeticError, TypeError, ValueError, RecursionError) as exc:  # a check missed: still no traceback
         raise ConfigError(f"{source}: {UNCHECKED} ({type(exc).__name__}: {exc})") from None
 
@@ -397,20 +549,39 @@ def parse_config(text: str, source: str = "<string>") -> SweepConfig:
 # -------------------------------------------------------------------------- validation
 
 
-def _unknown(key: str, allowed, where: str) -> ConfigError:
-    close = difflib.get_close_matches(str(key), list(allowed), n=1, cutoff=0.6)
+def _edit_distance(a: str, b: str) -> int:
+    """Optimal-string-alignment distance (insertions, deletions, substitutions, swaps)."""
+    prev2, prev = None, list(range(len(b) + 1))
+    for i, ca in enumerate(a, 1):
+        cur = [i] + [0] * len(b)
+        for j, cb in enumerate(b, 1):
+            cur[j] = min(prev[j] + 1, cur[j - 1] + 1, prev[j - 1] + (ca != cb))
+            if prev2 is not None and i > 1 and j > 1 and ca == b[j - 2] and a[i - 2] == cb:
+                cur[j] = min(cur[j], prev2[j - 2] + 1)
+        prev2, prev = prev, cur
+    return prev[-1]
+
+
+def _suggest(key, allowed) -> str | None:
+    """The allowed key ``key`` most likely misspells, or ``None``: difflib's closest match,
+    else one that differs only in case, else (keys of 2+ characters, where difflib's
+    ratio is too coarse: ``vo`` for ``v0``) one a single edit away."""
+    allowed = [str(a) for a in allowed]
+    key = str(key)
+    close = difflib.get_close_matches(key, allowed, n=1, cutoff=0.6)
     if not close:
-        close = [a for a in allowed if str(a).lower() == str(key).lower()]
-    hint = f"; did you mean {close[0]!r}?" if close else ""
+        close = [a for a in allowed if a.lower() == key.lower()]
+    if not close and 2 <= len(key) <= 40:
+        close = [a for a in allowed if _edit_distance(key.lower(), a.lower()) == 1]
+    return close[0] if close else None
+
+
+def _unknown(key: str, allowed, where: str) -> ConfigError:
+    close = _suggest(key, allowed)
+    hint = f"; did you mean {close!r}?" if close is not None else ""
     return ConfigError(
         f"unknown key {where}{_show(key)}{hint} (allowed: {', '.join(map(str, allowed))})"
     )
-
-
-def _check_keys(d: Mapping, allowed, where: str) -> None:
-    for k in d:
-        if k not in allowed:
-            raise _unknown(k, allowed, where)
 
 
 def _is_int(x) -> bool:
@@ -421,30 +592,57 @@ def _is_real(x) -> bool:
     return isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, bool)
 
 
-def _int(value, key: str, *, minimum: int | None = None, maximum: int | None = None) -> int:
+def _allowed(name: str) -> str:
+    """What a model parameter may be, as in the range messages (``allowed 1e-06 <= dt <= 1``)."""
+    if name in STR_PARAMS:
+        return f"choose one of {list(STR_PARAMS[name])}"
+    if name == "N":
+        return f"allowed N = n*n with n even, 4 <= N <= {PARAM_RANGES['N'][1]}"
+    if name == "modes":
+        return "allowed 0 (rigid discs) or 2..32"
+    lo, hi = PARAM_RANGES[name]
+    return f"allowed {lo:g} <= {name} {'<' if name == 'density' else '<='} {hi:g}"
+
+
+def _int(value, key: str, *, minimum: int | None = None, maximum: int | None = None,
+         allowed: str | None = None) -> int:
+    """``value`` as an int: an integer, or a float with an integral value (``2.0e3``).
+
+    ``allowed`` describes the range in the type error (default: from the bounds)."""
+    name = key.rsplit('.', 1)[-1]
+    if allowed is None:
+        if minimum is not None and maximum is not None:
+            allowed = f"allowed {minimum} <= {name} <= {maximum}"
+        elif minimum is not None:
+            allowed = f"allowed {name} >= {minimum}"
+    kind = f"must be an integer; {allowed}" if allowed else "must be an integer"
     if isinstance(value, float) and value.is_integer() and abs(value) < 2**53:
         value = int(value)
     if maximum is not None and _is_real(value) and value > maximum:  # also 1e30, before int() of it
         low = f"{minimum} <= " if minimum is not None else ""
-        raise ConfigError(f"{key} = {_show(value)} is out of range; allowed {low}{key.rsplit('.', 1)[-1]} <= "
-                          f"{maximum}")
+        raise ConfigError(f"{key} = {_show(value)} is out of range; allowed {low}{name} <= {maximum}")
+    if isinstance(value, float) and value.is_integer():  # beyond 2**53 a float is not exact
+        raise ConfigError(f"{key} = {_show(value)} {kind} (write it in digits: a float above 2**53 "
+                          "is not an exact integer)")
     if not _is_int(value):
-        raise ConfigError(f"{key} = {_show(value)} must be an integer")
+        raise ConfigError(f"{key} = {_show(value)} {kind}")
     value = int(value)
     if minimum is not None and value < minimum:
         raise ConfigError(f"{key} = {value} must be an integer >= {minimum}")
     return value
 
 
-def _real(value, key: str) -> float:
+def _real(value, key: str, allowed: str | None = None) -> float:
+    """``value`` as a finite float; ``allowed`` describes the range in the type error."""
+    tail = f"; {allowed}" if allowed else ""
     if not _is_real(value):
-        raise ConfigError(f"{key} = {_show(value)} must be a number")
+        raise ConfigError(f"{key} = {_show(value)} must be a number{tail}")
     try:
         value = float(value)
     except OverflowError:  # an int beyond float range
-        raise ConfigError(f"{key} = {_show(value)} must be a finite number") from None
+        raise ConfigError(f"{key} = {_show(value)} must be a finite number{tail}") from None
     if not math.isfinite(value):
-        raise ConfigError(f"{key} = {value!r} must be a finite number")
+        raise ConfigError(f"{key} = {value!r} must be a finite number{tail}")
     return value
 
 
@@ -456,7 +654,7 @@ def _check_param(name: str, value, where: str) -> Any:
             raise ConfigError(f"{key} = {_show(value)} is not allowed; choose one of {list(STR_PARAMS[name])}")
         return value
     if name == "N":
-        n = _int(value, key, minimum=4, maximum=PARAM_RANGES["N"][1])
+        n = _int(value, key, minimum=4, maximum=PARAM_RANGES["N"][1], allowed=_allowed("N"))
         from fcsweep.model.lattice import lattice_side
 
         try:
@@ -465,13 +663,13 @@ def _check_param(name: str, value, where: str) -> Any:
             raise ConfigError(f"{key} = {value!r}: {exc}") from None
         return n
     if name == "modes":
-        m = _int(value, key, minimum=0)
+        m = _int(value, key, minimum=0, allowed=_allowed("modes"))
         if m == 1 or m > 32:
             raise ConfigError(f"{key} = {m} is not allowed; modes is 0 (rigid discs) or 2..32")
         return m
     if name == "contour_points":
         return _int(value, key, minimum=8, maximum=PARAM_RANGES["contour_points"][1])
-    x = _real(value, key)
+    x = _real(value, key, _allowed(name))
     if name in ("eta", "v0", "Dr") and x < 0:
         raise ConfigError(f"{key} = {value!r} is out of range; {name} must be >= 0")
     if name in ("mu_theta", "mu_shape") and x < 0:
@@ -483,26 +681,60 @@ def _check_param(name: str, value, where: str) -> Any:
     return _check_range(name, x, key)
 
 
-def _grid_values(name: str, spec) -> tuple:
+def _grid_values(name: str, spec, problems: _Problems | None = None):
+    """The values of one grid entry, each checked as a model parameter; its problems go
+    to ``problems`` (then :data:`_FAILED` is returned) or are raised."""
+    local = _Problems() if problems is None else problems
+    first = local.count
+    values = _grid_raw_values(name, spec, local)
+    if values is not _FAILED:
+        is_range = isinstance(spec, Mapping)
+        out = []
+        for v in values:
+            x = local.attempt(_check_param, name, v, "grid")
+            if x is _FAILED and is_range:  # one message for a range, not one per value
+                break
+            out.append(x)
+        if local.count == first:
+            canon = Counter(_canon_value(name, v) for v in out)
+            if len(canon) != len(out):
+                dup = next(c for c, n in canon.items() if n > 1)
+                local.add(ConfigError(f"grid.{name} = {_show(list(values))} repeats the value {dup}; "
+                                      "each value once"))
+            values = tuple(out)
+    if problems is None:
+        local.raise_if_any()
+    return values if local.count == first else _FAILED
+
+
+def _grid_raw_values(name: str, spec, problems: _Problems):
+    """The unchecked values of a grid entry (a range expanded), or :data:`_FAILED`."""
     key = f"grid.{name}"
     if isinstance(spec, Mapping):
-        _check_keys(spec, RANGE_KEYS, f"in {key}: ")
+        first = problems.count
+        suggested = problems.keys(spec, RANGE_KEYS, f"in {key}: ")
         missing = [k for k in ("start", "stop", "num") if k not in spec]
+        if [k for k in missing if k not in suggested]:
+            problems.add(ConfigError(
+                f"{key} = {_show(dict(spec))} is missing {missing}; a range is {{start, stop, num[, log]}}"))
         if missing:
-            raise ConfigError(
-                f"{key} = {_show(dict(spec))} is missing {missing}; a range is {{start, stop, num[, log]}}"
-            )
-        start = _real(spec["start"], f"{key}.start")
-        stop = _real(spec["stop"], f"{key}.stop")
-        num = _int(spec["num"], f"{key}.num", minimum=1, maximum=MAX_RUNS)
+            return _FAILED
+        allowed = _allowed(name) if name in PARAM_RANGES else None
+        start = problems.attempt(_real, spec["start"], f"{key}.start", allowed)
+        stop = problems.attempt(_real, spec["stop"], f"{key}.stop", allowed)
+        num = problems.attempt(_int, spec["num"], f"{key}.num", minimum=1, maximum=MAX_RUNS)
         log = spec.get("log", False)
         if not isinstance(log, bool):
-            raise ConfigError(f"{key}.log = {_show(log)} must be true or false")
+            problems.add(ConfigError(f"{key}.log = {_show(log)} must be true or false"))
         if name in STR_PARAMS:
-            raise ConfigError(f"{key} = {_show(dict(spec))}: {name} takes a list of names, not a range")
+            problems.add(ConfigError(f"{key} = {_show(dict(spec))}: {name} takes a list of names, not a range"))
+        if problems.count > first:
+            return _FAILED
         if log:
             if start <= 0 or stop <= 0:
-                raise ConfigError(f"{key} = {_show(dict(spec))}: a log range needs start > 0 and stop > 0")
+                problems.add(ConfigError(
+                    f"{key} = {_show(dict(spec))}: a log range needs start > 0 and stop > 0"))
+                return _FAILED
             values = np.geomspace(start, stop, num)
         else:
             values = np.linspace(start, stop, num)
@@ -510,30 +742,27 @@ def _grid_values(name: str, spec) -> tuple:
         values = [float(f"{v:.12g}") for v in values]
         if name in INT_PARAMS:
             if any(not float(v).is_integer() for v in values):
-                raise ConfigError(
+                problems.add(ConfigError(
                     f"{key} = {_show(dict(spec))} gives non-integer values {values}; "
-                    f"{name} must be integers (use a list)"
-                )
+                    f"{name} must be integers (use a list)"))
+                return _FAILED
             values = [int(v) for v in values]
-    elif isinstance(spec, (list, tuple)):
+        return values
+    if isinstance(spec, (list, tuple)):
         if len(spec) == 0:
-            raise ConfigError(f"{key} = [] is empty; give at least one value")
-        values = list(spec)
-    elif isinstance(spec, (str, int, float)) and not isinstance(spec, bool):
-        values = [spec]
-    else:
-        raise ConfigError(f"{key} = {_show(spec)} must be a list of values or {{start, stop, num}}")
-    out = tuple(_check_param(name, v, "grid") for v in values)
-    canon = Counter(_canon_value(name, v) for v in out)
-    if len(canon) != len(out):
-        dup = next(c for c, n in canon.items() if n > 1)
-        raise ConfigError(f"{key} = {_show(list(values))} repeats the value {dup}; each value once")
-    return out
+            problems.add(ConfigError(f"{key} = [] is empty; give at least one value"))
+            return _FAILED
+        return list(spec)
+    if isinstance(spec, (str, int, float)) and not isinstance(spec, bool):
+        return [spec]
+    problems.add(ConfigError(f"{key} = {_show(spec)} must be a list of values or {{start, stop, num}}"))
+    return _FAILED
 
 
 def check_runnable(cfg: "SweepConfig") -> None:
     """Checks that concern running a sweep, not reading one: raise :class:`ConfigError`
-    if some grid point cannot be integrated faithfully.
+    (all problems at once, the first grid point of each kind) if some grid point cannot
+    be integrated faithfully.
 
     - K > 2M contour points (:func:`fcsweep.model.shape.contour_points_problem`);
     - dt within the tension limit of the stiffest shape mode
@@ -548,143 +777,84 @@ def check_runnable(cfg: "SweepConfig") -> None:
     aggregate, plot) do not, so sweeps computed before a check existed stay readable.
     """
     grid, model = cfg.grid, cfg.model
+    problems = _Problems()
 
     def where(name):
         return f"grid.{name}" if name in grid else f"model.{name}"
 
     names = ("dt", "eta", "modes", "mu_shape", "R0", "contour_points")
+    found = {"contour_points": False, "dt": False}
     for dt, eta, modes, mu_shape, R0, K in _grid_or_model(cfg, names):
-        problem = contour_points_problem(K, modes)
-        if problem:
-            raise ConfigError(f"{cfg.source}: {where('contour_points')}: {problem}")
-        problem = dt_problem(dt, eta, modes, mu_shape, R0)
-        if problem:
-            raise ConfigError(f"{cfg.source}: {where('dt')}: {problem}")
+        for name, problem in (("contour_points", not found["contour_points"] and contour_points_problem(K, modes)),
+                              ("dt", not found["dt"] and dt_problem(dt, eta, modes, mu_shape, R0))):
+            if problem:
+                problems.add(ConfigError(f"{where(name)}: {problem}"))
+                found[name] = True
+        if all(found.values()):
+            break
     for integrator, quadrature, modes in _grid_or_model(cfg, ("integrator", "quadrature", "modes")):
         problem = integrator_problem(integrator, quadrature, modes)
         if problem:
-            raise ConfigError(f"{cfg.source}: {where('integrator')}: {problem}")
+            problems.add(ConfigError(f"{where('integrator')}: {problem}"))
+            break
     if set(grid.get("modes", (model.get("modes"),))) == {0}:
         for name in ("quadrature", "contour_points"):
             if name in grid:
-                raise ConfigError(
-                    f"{cfg.source}: grid.{name} = {list(grid[name])!r} is swept but does not change the physics "
+                problems.add(ConfigError(
+                    f"grid.{name} = {list(grid[name])!r} is swept but does not change the physics "
                     "with modes = 0 (rigid discs: exact lens overlaps, no contour); the runs would differ only in "
-                    "their noise. Sweep it with modes >= 2 or remove it")
-    try:
-        check_step_sizes(cfg)
-        check_memory(cfg)
-    except ConfigError as exc:
-        raise ConfigError(f"{cfg.source}: {exc}") from None
+                    "their noise. Sweep it with modes >= 2 or remove it"))
+    problems.attempt(check_step_sizes, cfg)
+    problems.attempt(check_memory, cfg)
+    problems.raise_if_any(cfg.source)
 
 
 def _validate(data, source: str) -> SweepConfig:
+    """The validated config, or one ConfigError listing every problem of ``data``."""
     if data is None:
         raise ConfigError("the file is empty; a sweep needs at least 'grid' and 'run'")
     if not isinstance(data, Mapping):
         raise ConfigError(f"top level must be a mapping of sections, got {type(data).__name__}")
-    _check_keys(data, TOP_KEYS, "")
+    problems = _Problems()
+    suggested = problems.keys(data, TOP_KEYS, "")
     for req in ("output", "grid", "run"):
-        if req not in data:
-            raise ConfigError(f"missing required section {req!r}")
+        if req not in data and req not in suggested:
+            problems.add(ConfigError(f"missing required section {req!r}"))
 
-    # output
-    out = data["output"]
-    store = StoreSettings()
-    if isinstance(out, Mapping):
-        _check_keys(out, OUTPUT_KEYS, "in output: ")
-        if "dir" not in out:
-            raise ConfigError("output.dir is missing; give the sweep directory")
-        fields = out.get("fields", list(DEFAULT_FIELDS))
-        if not isinstance(fields, (list, tuple)) or not all(isinstance(f, str) for f in fields):
-            raise ConfigError(f"output.fields = {_show(fields)} must be a list of names from {list(FIELDS)}")
-        for f in fields:
-            if f not in FIELDS:
-                raise _unknown(f, FIELDS, "in output.fields: ")
-        fields = tuple(f for f in FIELDS if f in set(fields) | {"position", "image"})
-        comp = out.get("compression", "gzip")
-        if comp not in COMPRESSIONS:
-            raise ConfigError(f"output.compression = {_show(comp)} is not allowed; choose one of {list(COMPRESSIONS)}")
-        level = _int(out.get("compression_level", 4), "output.compression_level", minimum=0)
-        if level > 9:
-            raise ConfigError(f"output.compression_level = {level} is out of range; allowed 0..9")
-        store = StoreSettings(fields=fields, compression=comp, compression_level=level)
-        out = out["dir"]
-    if not isinstance(out, str) or not out.strip():
-        raise ConfigError(f"output = {_show(out)} must be a directory path (string)")
-    _check_output_path(out)
-    output = Path(os.path.expanduser(out))
-
-    seed = _int(data.get("seed", 0), "seed", minimum=0)
-    if seed >= 2**63:
-        raise ConfigError(f"seed = {seed} is out of range; allowed 0 <= seed < 2**63")
-    replicates = _int(data.get("replicates", 1), "replicates", minimum=1, maximum=MAX_RUNS)
+    out = _output_section(data["output"], problems) if "output" in data else _FAILED
+    seed = problems.attempt(_seed, data.get("seed", 0))
+    replicates = problems.attempt(_int, data.get("replicates", 1), "replicates", minimum=1, maximum=MAX_RUNS)
     description = data.get("description", "")
     if not isinstance(description, str):
-        raise ConfigError(f"description = {_show(description)} must be a string")
+        problems.add(ConfigError(f"description = {_show(description)} must be a string"))
 
     # grid
-    grid_in = data["grid"]
-    if not isinstance(grid_in, Mapping):
-        raise ConfigError(f"grid = {_show(grid_in)} must be a mapping of parameter -> values")
-    if len(grid_in) == 0:
-        raise ConfigError("grid = {} is empty; sweep at least one model parameter")
-    _check_keys(grid_in, list(MODEL_DEFAULTS), "in grid: ")
-    _check_run_count(grid_in, replicates)
-    grid = {str(k): _grid_values(str(k), v) for k, v in grid_in.items()}
-    log_axes = tuple(str(k) for k, v in grid_in.items() if isinstance(v, Mapping) and v.get("log") is True)
-
-    # model
-    model_in = data.get("model") or {}
-    if not isinstance(model_in, Mapping):
-        raise ConfigError(f"model = {_show(model_in)} must be a mapping of parameter -> value")
-    _check_keys(model_in, list(MODEL_DEFAULTS), "in model: ")
-    model: dict[str, Any] = {}
-    for name, default in MODEL_DEFAULTS.items():
-        if name in grid:
-            if name in model_in:
-                raise ConfigError(
-                    f"model.{name} = {_show(model_in[name])} is also swept in grid.{name}; "
-                    "give it in one place only"
-                )
-            continue
-        if name in model_in:
-            model[name] = _check_param(name, model_in[name], "model")
-        elif default is None:
-            raise ConfigError(f"model parameter {name!r} is missing; give it in 'model' or 'grid'")
+    grid, swept, log_axes = _FAILED, set(), ()
+    grid_in = data.get("grid")
+    grid_named = isinstance(grid_in, Mapping) and len(grid_in) > 0  # so missing parameters are meaningful
+    if "grid" in data:
+        if not isinstance(grid_in, Mapping):
+            problems.add(ConfigError(f"grid = {_show(grid_in)} must be a mapping of parameter -> values"))
+        elif len(grid_in) == 0:
+            problems.add(ConfigError("grid = {} is empty; sweep at least one model parameter"))
         else:
-            model[name] = default
+            first = problems.count
+            suggested = problems.keys(grid_in, list(MODEL_DEFAULTS), "in grid: ")
+            known = {k: v for k, v in grid_in.items() if k in MODEL_DEFAULTS}
+            swept = set(known) | suggested
+            counted = problems.attempt(_check_run_count, known, 1 if replicates is _FAILED else replicates)
+            if counted is not _FAILED:  # expand nothing that may be huge
+                grid = {str(k): _grid_values(str(k), v, problems) for k, v in known.items()}
+                log_axes = tuple(str(k) for k, v in known.items() if isinstance(v, Mapping) and v.get("log") is True)
+            if problems.count > first:
+                grid = _FAILED
 
-    # run
-    run_in = data["run"]
-    if not isinstance(run_in, Mapping):
-        raise ConfigError(f"run = {_show(run_in)} must be a mapping")
-    _check_keys(run_in, RUN_KEYS, "in run: ")
-    for req in ("steps", "sample_every"):
-        if req not in run_in:
-            raise ConfigError(f"run.{req} is missing")
-    steps = _int(run_in["steps"], "run.steps", minimum=1, maximum=MAX_STEPS)
-    sample_every = _int(run_in["sample_every"], "run.sample_every", minimum=1, maximum=MAX_STEPS)
-    if steps % sample_every:
-        raise ConfigError(
-            f"run.steps = {steps} is not a multiple of run.sample_every = {sample_every}; "
-            "steps must be a whole number of frames"
-        )
-    checkpoint_every = _int(run_in.get("checkpoint_every", steps), "run.checkpoint_every", minimum=1,
-                            maximum=MAX_STEPS)
-    if checkpoint_every % sample_every:
-        raise ConfigError(
-            f"run.checkpoint_every = {checkpoint_every} is not a multiple of run.sample_every = "
-            f"{sample_every}; checkpoints are taken on frame boundaries"
-        )
-    transient = _real(run_in.get("transient", 0.2), "run.transient")
-    if not 0.0 <= transient < 1.0:
-        raise ConfigError(f"run.transient = {transient!r} is out of range; allowed 0 <= transient < 1")
-    until = _until(run_in["until"], steps, sample_every, checkpoint_every) if run_in.get("until") is not None \
-        else None
-    run = RunSettings(steps, sample_every, checkpoint_every, transient, until)
-    _check_run_length(run, grid, model)
-
+    model = _model_section(data.get("model") or {}, swept, grid_named, problems)
+    run = _run_section(data["run"], problems) if "run" in data else _FAILED
+    if not any(x is _FAILED for x in (run, grid, model)):
+        problems.attempt(_check_run_length, run, grid, model)
+    problems.raise_if_any()
+    output, store = out
     return SweepConfig(
         output=output,
         seed=seed,
@@ -699,41 +869,186 @@ def _validate(data, source: str) -> SweepConfig:
     )
 
 
-def _until(until_in, steps: int, sample_every: int, checkpoint_every: int) -> UntilSettings:
-    """Validate ``run.until``; every message names the key and its allowed range."""
+def _seed(value) -> int:
+    seed = _int(value, "seed", minimum=0, allowed="allowed 0 <= seed < 2**63")
+    if seed >= 2**63:
+        raise ConfigError(f"seed = {seed} is out of range; allowed 0 <= seed < 2**63")
+    return seed
+
+
+def _output_section(out, problems: _Problems):
+    """``(output directory, StoreSettings)`` of the ``output`` section, or :data:`_FAILED`."""
+    first = problems.count
+    store = StoreSettings()
+    if isinstance(out, Mapping):
+        problems.keys(out, OUTPUT_KEYS, "in output: ")
+        fields = out.get("fields", list(DEFAULT_FIELDS))
+        if not isinstance(fields, (list, tuple)) or not all(isinstance(f, str) for f in fields):
+            problems.add(ConfigError(f"output.fields = {_show(fields)} must be a list of names from {list(FIELDS)}"))
+        else:
+            for f in fields:
+                if f not in FIELDS:
+                    problems.add(_unknown(f, FIELDS, "in output.fields: "))
+            fields = tuple(f for f in FIELDS if f in set(fields) | {"position", "image"})
+        comp = out.get("compression", "gzip")
+        if comp not in COMPRESSIONS:
+            problems.add(ConfigError(
+                f"output.compression = {_show(comp)} is not allowed; choose one of {list(COMPRESSIONS)}"))
+        level = problems.attempt(_int, out.get("compression_level", 4), "output.compression_level", minimum=0,
+                                 allowed="allowed 0..9")
+        if level is not _FAILED and level > 9:
+            problems.add(ConfigError(f"output.compression_level = {level} is out of range; allowed 0..9"))
+        if "dir" not in out:
+            problems.add(ConfigError("output.dir is missing; give the sweep directory"))
+            return _FAILED
+        if problems.count == first:
+            store = StoreSettings(fields=fields, compression=comp, compression_level=level)
+        out = out["dir"]
+    if not isinstance(out, str) or not out.strip():
+        problems.add(ConfigError(f"output = {_show(out)} must be a directory path (string)"))
+    else:
+        problems.attempt(_check_output_path, out)
+    if problems.count > first:
+        return _FAILED
+    return Path(os.path.expanduser(out)), store
+
+
+def _model_section(model_in, swept: set, grid_named: bool, problems: _Problems):
+    """The fixed model parameters, defaults filled in, or :data:`_FAILED`.
+
+    ``swept``: the grid's parameters (and those a misspelled grid key suggests);
+    ``grid_named``: whether the grid is a non-empty mapping, so that a parameter in
+    neither place is missing (and not a consequence of a broken grid).
+    """
+    if not isinstance(model_in, Mapping):
+        problems.add(ConfigError(f"model = {_show(model_in)} must be a mapping of parameter -> value"))
+        return _FAILED
+    first = problems.count
+    suggested = problems.keys(model_in, list(MODEL_DEFAULTS), "in model: ")
+    model: dict[str, Any] = {}
+    for name, default in MODEL_DEFAULTS.items():
+        if name in swept:
+            if name in model_in:
+                problems.add(ConfigError(
+                    f"model.{name} = {_show(model_in[name])} is also swept in grid.{name}; "
+                    "give it in one place only"))
+            continue
+        if name in model_in:
+            model[name] = problems.attempt(_check_param, name, model_in[name], "model")
+        elif default is None:
+            if grid_named and name not in suggested:
+                problems.add(ConfigError(f"model parameter {name!r} is missing; give it in 'model' or 'grid'"))
+            model[name] = _FAILED
+        else:
+            model[name] = default
+    return model if problems.count == first and _FAILED not in model.values() else _FAILED
+
+
+def _run_section(run_in, problems: _Problems):
+    """The :class:`RunSettings` of the ``run`` section, or :data:`_FAILED`."""
+    if not isinstance(run_in, Mapping):
+        problems.add(ConfigError(f"run = {_show(run_in)} must be a mapping"))
+        return _FAILED
+    first = problems.count
+    suggested = problems.keys(run_in, RUN_KEYS, "in run: ")
+    for req in ("steps", "sample_every"):
+        if req not in run_in and req not in suggested:
+            problems.add(ConfigError(f"run.{req} is missing"))
+    steps = sample_every = checkpoint_every = _FAILED
+    if "steps" in run_in:
+        steps = problems.attempt(_int, run_in["steps"], "run.steps", minimum=1, maximum=MAX_STEPS)
+    if "sample_every" in run_in:
+        sample_every = problems.attempt(_int, run_in["sample_every"], "run.sample_every", minimum=1,
+                                        maximum=MAX_STEPS)
+    if steps is not _FAILED and sample_every is not _FAILED and steps % sample_every:
+        problems.add(ConfigError(
+            f"run.steps = {steps} is not a multiple of run.sample_every = {sample_every}; "
+            "steps must be a whole number of frames"))
+    if "checkpoint_every" in run_in or steps is not _FAILED:
+        checkpoint_every = problems.attempt(_int, run_in.get("checkpoint_every", steps), "run.checkpoint_every",
+                                            minimum=1, maximum=MAX_STEPS)
+    if checkpoint_every is not _FAILED and sample_every is not _FAILED and checkpoint_every % sample_every:
+        problems.add(ConfigError(
+            f"run.checkpoint_every = {checkpoint_every} is not a multiple of run.sample_every = "
+            f"{sample_every}; checkpoints are taken on frame boundaries"))
+    transient = problems.attempt(_real, run_in.get("transient", 0.2), "run.transient",
+                                 "allowed 0 <= transient < 1")
+    if transient is not _FAILED and not 0.0 <= transient < 1.0:
+        problems.add(ConfigError(f"run.transient = {transient!r} is out of range; allowed 0 <= transient < 1"))
+    until = None
+    if run_in.get("until") is not None:
+        if problems.count > first:  # until's bounds refer to steps and checkpoint_every
+            return _FAILED
+        until = _until(run_in["until"], steps, sample_every, checkpoint_every, problems)
+    if problems.count > first:
+        return _FAILED
+    return RunSettings(steps, sample_every, checkpoint_every, transient, until)
+
+
+def _until(until_in, steps: int, sample_every: int, checkpoint_every: int,
+           problems: _Problems | None = None) -> UntilSettings:
+    """Validate ``run.until``; every message names the key and its allowed range.
+
+    Problems go to ``problems`` (then :data:`_FAILED` is returned) or are raised."""
+    local = _Problems() if problems is None else problems
+    first = local.count
+    result = _until_settings(until_in, steps, checkpoint_every, local)
+    if problems is None:
+        local.raise_if_any()
+    return result if local.count == first else _FAILED
+
+
+def _until_settings(until_in, steps: int, checkpoint_every: int, problems: _Problems):
     if not isinstance(until_in, Mapping):
-        raise ConfigError(f"run.until = {until_in!r} must be a mapping with keys {', '.join(UNTIL_KEYS)}")
-    _check_keys(until_in, UNTIL_KEYS, "in run.until: ")
+        problems.add(ConfigError(f"run.until = {until_in!r} must be a mapping with keys {', '.join(UNTIL_KEYS)}"))
+        return _FAILED
+    suggested = problems.keys(until_in, UNTIL_KEYS, "in run.until: ")
+    check_every = _FAILED
     if "check_every" not in until_in:
-        raise ConfigError(f"run.until.check_every is missing; give the steps between checks, a multiple of "
-                          f"run.checkpoint_every = {checkpoint_every} and at most run.steps = {steps}")
-    check_every = _int(until_in["check_every"], "run.until.check_every", minimum=1)
-    if check_every % checkpoint_every or check_every > steps:
-        raise ConfigError(
-            f"run.until.check_every = {check_every} is not allowed; it must be a multiple of "
-            f"run.checkpoint_every = {checkpoint_every} (checks happen at checkpoints) and at most "
-            f"run.steps = {steps}")
-    min_steps = _int(until_in.get("min_steps", check_every), "run.until.min_steps", minimum=0)
-    if min_steps > steps:
-        raise ConfigError(f"run.until.min_steps = {min_steps} is out of range; allowed 0 <= min_steps <= "
-                          f"run.steps = {steps}")
-    confidence = _real(until_in.get("confidence", UNTIL_CONFIDENCE), "run.until.confidence")
-    if not 0.5 <= confidence < 1.0:
-        raise ConfigError(f"run.until.confidence = {confidence!r} is out of range; allowed 0.5 <= confidence < 1 "
-                          "(the probability both labels must reach)")
+        if "check_every" not in suggested:
+            problems.add(ConfigError(
+                f"run.until.check_every is missing; give the steps between checks, a multiple of "
+                f"run.checkpoint_every = {checkpoint_every} and at most run.steps = {steps}"))
+    else:
+        check_every = problems.attempt(_int, until_in["check_every"], "run.until.check_every", minimum=1,
+                                       allowed=f"allowed a multiple of run.checkpoint_every = {checkpoint_every}, "
+                                               f"at most run.steps = {steps}")
+        if check_every is not _FAILED and (check_every % checkpoint_every or check_every > steps):
+            problems.add(ConfigError(
+                f"run.until.check_every = {check_every} is not allowed; it must be a multiple of "
+                f"run.checkpoint_every = {checkpoint_every} (checks happen at checkpoints) and at most "
+                f"run.steps = {steps}"))
+            check_every = _FAILED
+    min_steps = _FAILED
+    if "min_steps" in until_in or check_every is not _FAILED:
+        min_steps = problems.attempt(_int, until_in.get("min_steps", check_every), "run.until.min_steps", minimum=0,
+                                     allowed=f"allowed 0 <= min_steps <= run.steps = {steps}")
+    if min_steps is not _FAILED and min_steps > steps:
+        problems.add(ConfigError(f"run.until.min_steps = {min_steps} is out of range; allowed 0 <= min_steps <= "
+                                 f"run.steps = {steps}"))
+    confidence = problems.attempt(_real, until_in.get("confidence", UNTIL_CONFIDENCE), "run.until.confidence",
+                                  "allowed 0.5 <= confidence < 1")
+    if confidence is not _FAILED and not 0.5 <= confidence < 1.0:
+        problems.add(ConfigError(
+            f"run.until.confidence = {confidence!r} is out of range; allowed 0.5 <= confidence < 1 "
+            "(the probability both labels must reach)"))
     rel_in = until_in.get("rel_error") or {}
-    if not isinstance(rel_in, Mapping):
-        raise ConfigError(f"run.until.rel_error = {rel_in!r} must be a mapping observable -> target, "
-                          f"observables from {list(UNTIL_OBSERVABLES)}")
-    _check_keys(rel_in, UNTIL_OBSERVABLES, "in run.until.rel_error: ")
     rel = []
-    for name in UNTIL_OBSERVABLES:
-        if name in rel_in:
-            x = _real(rel_in[name], f"run.until.rel_error.{name}")
-            if not 0.0 < x <= 1.0:
-                raise ConfigError(f"run.until.rel_error.{name} = {x!r} is out of range; allowed 0 < target <= 1 "
-                                  "(1-sigma error / |value|)")
-            rel.append((name, x))
+    if not isinstance(rel_in, Mapping):
+        problems.add(ConfigError(f"run.until.rel_error = {rel_in!r} must be a mapping observable -> target, "
+                                 f"observables from {list(UNTIL_OBSERVABLES)}"))
+    else:
+        problems.keys(rel_in, UNTIL_OBSERVABLES, "in run.until.rel_error: ")
+        for name in UNTIL_OBSERVABLES:
+            if name in rel_in:
+                x = problems.attempt(_real, rel_in[name], f"run.until.rel_error.{name}", "allowed 0 < target <= 1")
+                if x is not _FAILED and not 0.0 < x <= 1.0:
+                    problems.add(ConfigError(
+                        f"run.until.rel_error.{name} = {x!r} is out of range; allowed 0 < target <= 1 "
+                        "(1-sigma error / |value|)"))
+                rel.append((name, x))
+    if _FAILED in (check_every, min_steps, confidence) or any(x is _FAILED for _, x in rel):
+        return _FAILED
     return UntilSettings(check_every, min_steps, confidence, tuple(rel))
 
 
@@ -932,24 +1247,29 @@ def check_step_sizes(cfg: "SweepConfig") -> None:
       neighbours' contours;
     - ``D_r dt <= MAX_DR_DT``: the polarity decorrelates within a few steps beyond it,
       and the discrete walk's D0 deviates by (D_r dt)^2 / 12 from v0^2 / (2 D_r).
+
+    Both are reported together, each at the first grid point that breaks it.
     """
     def where(name):
         return f"grid.{name}" if name in cfg.grid else f"model.{name}"
 
+    step = turn = None  # the first grid point of each kind: a message per kind, not per point
     for v0, Dr, dt, R0, K, modes in _grid_or_model(cfg, ("v0", "Dr", "dt", "R0", "contour_points", "modes")):
         limit = MAX_STEP_PER_R0 * R0
         what = f"{MAX_STEP_PER_R0:g} R0"
         if modes >= 2 and MAX_STEP_PER_SPACING * 2 * math.pi * R0 / K < limit:
             limit = MAX_STEP_PER_SPACING * 2 * math.pi * R0 / K
             what = f"half the contour spacing 2 pi R0/K with contour_points = {K}"
-        if v0 * dt > limit:
-            raise ConfigError(
-                f"{where('v0')} = {v0:g} with dt = {dt:g} (R0 = {R0:g}) moves a cell v0*dt = {v0 * dt:.3g} per "
-                f"step; allowed v0*dt <= {limit:.4g} ({what}): lower dt or v0")
-        if Dr * dt > MAX_DR_DT:
-            raise ConfigError(
-                f"{where('Dr')} = {Dr:g} with dt = {dt:g} gives Dr*dt = {Dr * dt:.3g}; allowed Dr*dt <= "
-                f"{MAX_DR_DT:g} (beyond it the discrete walk no longer has D0 = v0^2/(2 Dr)): lower dt or Dr")
+        if step is None and v0 * dt > limit:
+            step = (f"{where('v0')} = {v0:g} with dt = {dt:g} (R0 = {R0:g}) moves a cell v0*dt = {v0 * dt:.3g} per "
+                    f"step; allowed v0*dt <= {limit:.4g} ({what}): lower dt or v0")
+        if turn is None and Dr * dt > MAX_DR_DT:
+            turn = (f"{where('Dr')} = {Dr:g} with dt = {dt:g} gives Dr*dt = {Dr * dt:.3g}; allowed Dr*dt <= "
+                    f"{MAX_DR_DT:g} (beyond it the discrete walk no longer has D0 = v0^2/(2 Dr)): lower dt or Dr")
+        if step and turn:
+            break
+    if step or turn:
+        raise ConfigError(problems=[p for p in (step, turn) if p])
 
 
 def run_memory_bytes(N: int, contour_points: int, modes: int, quadrature: str = "arc",
@@ -999,6 +1319,113 @@ def check_memory(cfg: "SweepConfig", available: int | None = None) -> None:
                           f"{need / 2**30:.1f} GiB of memory; this machine has {available / 2**30:.1f} GiB")
 
 
+# ------------------------------------------------------------------------ JSON Schema
+
+#: One line per model parameter for the JSON Schema (editors show it on hover).
+_PARAM_DOC = {
+    "N": "number of cells, an n x n hexagonal lattice: n*n with n even (16, 36, 64, ..., 1024)",
+    "eta": "membrane tension",
+    "v0": "self-propulsion speed (v0*dt within the step bound)",
+    "Dr": "rotational diffusion (Dr*dt <= 0.1)",
+    "density": "area fraction",
+    "dt": "time step (also below the tension limit 1.5/lambda_M)",
+    "contour_points": "contour quadrature points K (> 2 modes)",
+    "modes": "highest Fourier mode M: 0 (rigid discs) or 2..32",
+    "quadrature": "contact quadrature (binary: the paper's)",
+    "R0": "radius of the circle of equal area",
+    "mu_theta": "mobility of the polarity angle",
+    "mu_shape": "mobility of the shape modes",
+    "integrator": "time step scheme (euler: the paper's)",
+}
+
+
+def _param_schema(name: str) -> dict[str, Any]:
+    """JSON Schema of one model parameter value, from PARAM_RANGES and STR_PARAMS."""
+    doc = {"description": f"{_PARAM_DOC.get(name, name)}; {_allowed(name)}"}
+    if name in STR_PARAMS:
+        return {**doc, "type": "string", "enum": list(STR_PARAMS[name])}
+    lo, hi = PARAM_RANGES[name]
+    if name in INT_PARAMS:
+        schema = {"type": "integer", "minimum": lo, "maximum": hi}
+        if name == "modes":
+            schema["not"] = {"const": 1}
+        return {**doc, **schema}
+    upper = "exclusiveMaximum" if name == "density" else "maximum"
+    return {**doc, "type": "number", "minimum": lo, upper: hi}
+
+
+def json_schema() -> dict[str, Any]:
+    """JSON Schema (draft-07) of a sweep YAML file, for editors' YAML language servers.
+
+    Generated from the tables the validation uses (:data:`PARAM_RANGES`, the allowed keys
+    and names, the resource bounds); ``fcsweep schema`` prints it.  It checks keys, types
+    and per-value ranges; what involves several values (N = n*n with n even, steps a
+    multiple of sample_every, v0*dt, the run count, ...) only :func:`load_config` and
+    :func:`check_runnable` check.
+
+    Returns
+    -------
+    dict
+        The schema, JSON-serialisable.
+    """
+    def obj(properties: dict, required=(), **extra) -> dict:
+        out = {"type": "object", "properties": properties, "additionalProperties": False, **extra}
+        if required:
+            out["required"] = list(required)
+        return out
+
+    def integer(lo: int, hi: int | None = None, description: str = "") -> dict:
+        out = {"type": "integer", "minimum": lo}
+        if hi is not None:
+            out["maximum"] = hi
+        return {"description": description, **out} if description else out
+
+    params = {name: _param_schema(name) for name in MODEL_DEFAULTS}
+    grid_entry = {}
+    for name, value in params.items():
+        choices = [value, {"type": "array", "items": value, "minItems": 1, "uniqueItems": True}]
+        if name not in STR_PARAMS:
+            number = {"type": "number", **{k: v for k, v in value.items() if k.endswith(("imum", "Maximum"))}}
+            choices.append(obj({"start": number, "stop": number, "num": integer(1, MAX_RUNS),
+                                "log": {"type": "boolean"}}, ("start", "stop", "num"),
+                               description="numpy.linspace(start, stop, num), or geomspace with log: true"))
+        grid_entry[name] = {"description": value["description"], "anyOf": choices}
+    output = obj({
+        "dir": {"type": "string", "minLength": 1},
+        "fields": {"type": "array", "items": {"enum": list(FIELDS)}, "uniqueItems": True},
+        "compression": {"enum": list(COMPRESSIONS)},
+        "compression_level": integer(0, 9),
+    }, ("dir",))
+    until = obj({
+        "check_every": integer(1, MAX_STEPS, "steps between checks: a multiple of run.checkpoint_every, "
+                                             "<= run.steps"),
+        "min_steps": integer(0, MAX_STEPS, "no check before this step (<= run.steps)"),
+        "confidence": {"type": "number", "minimum": 0.5, "exclusiveMaximum": 1},
+        "rel_error": obj({name: {"type": "number", "exclusiveMinimum": 0, "maximum": 1}
+                          for name in UNTIL_OBSERVABLES}),
+    }, ("check_every",))
+    run = obj({
+        "steps": integer(1, MAX_STEPS, "integration steps, a multiple of sample_every"),
+        "sample_every": integer(1, MAX_STEPS, "steps between trajectory frames"),
+        "checkpoint_every": integer(1, MAX_STEPS, "a multiple of sample_every (default: steps)"),
+        "transient": {"type": "number", "minimum": 0, "exclusiveMaximum": 1},
+        "until": {"anyOf": [until, {"type": "null"}]},
+    }, ("steps", "sample_every"))
+    return {
+        "$schema": "http://json-schema.org/draft-07/schema#",
+        "title": "fcsweep sweep configuration",
+        **obj({
+            "description": {"type": "string"},
+            "output": {"anyOf": [{"type": "string", "minLength": 1}, output]},
+            "seed": integer(0, 2**63 - 1),
+            "replicates": integer(1, MAX_RUNS),
+            "grid": obj(grid_entry, minProperties=1),
+            "model": {"anyOf": [obj(params), {"type": "null"}]},
+            "run": run,
+        }, ("output", "grid", "run")),
+    }
+
+
 # ---------------------------------------------------------------------------- run ids
 
 
@@ -1029,15 +1456,9 @@ def seed_of(base_seed: int, run_id: str) -> int:
 
 
 def _expand(cfg: SweepConfig) -> list[RunSpec]:
-    from fcsweep.io.refinement import RefinementError, read_points
-
     names = list(cfg.grid)
-    try:
-        extra = read_points(cfg.output)
-    except RefinementError as exc:
-        raise ConfigError(str(exc)) from None
     points = []
-    for k, point in enumerate(extra):
+    for k, point in enumerate(cfg.refined):
         if sorted(point) != sorted(names):
             raise ConfigError(
                 f"{cfg.output}/refinement.json point {k} has parameters {sorted(point)} but the grid sweeps "

@@ -2,13 +2,14 @@
 
 A seeded mutator damages ``configs/phase.yaml`` (values, keys, structure and raw text);
 ``fcsweep validate`` must answer each mutant with exit 0 or with exit 2 and one line on
-stderr, never a traceback, and never through the last-resort net of ``parse_config``.
+stderr per problem, never a traceback, and never through the last-resort net of ``parse_config``.
 """
 
 from __future__ import annotations
 
 import os
 import random
+import re
 import time
 from pathlib import Path
 
@@ -19,6 +20,7 @@ from click.testing import CliRunner
 from fcsweep.cli import cli
 from fcsweep.config import (
     MAX_CONFIG_BYTES,
+    MAX_LISTED,
     MAX_RUNS,
     UNCHECKED,
     ConfigError,
@@ -105,15 +107,19 @@ def _check_answer(result, source: str) -> None:
     assert result.exit_code in (0, 2), (source, result.exit_code, result.output)
     if result.exit_code == 2:
         lines = result.stderr.splitlines()
-        assert len(lines) == 1 and lines[0].startswith("fcsweep: "), (source, result.stderr)
-        assert UNCHECKED not in lines[0], (source, lines[0])
+        assert lines and lines[0].startswith("fcsweep: "), (source, result.stderr)
+        if len(lines) > 1:  # several problems: "<file>: n problems:", then one indented line each
+            n = int(re.search(r": (\d+) problems:$", lines[0])[1])
+            assert len(lines) == 1 + min(n, MAX_LISTED) + (n > MAX_LISTED), (source, result.stderr)
+            assert all(line.startswith("  ") for line in lines[1:]), (source, result.stderr)
+        assert UNCHECKED not in result.stderr, (source, result.stderr)
     else:
         assert ": OK, " in result.stdout, (source, result.output)
 
 
 @pytest.mark.parametrize("seed", range(4))
 def test_fuzzed_phase_configs_exit_0_or_2_without_traceback(seed, tmp_path, monkeypatch):
-    """100 mutants per seed: exit 0 (an OK line) or 2 (one line), no traceback, under 2 s each,
+    """100 mutants per seed: exit 0 (an OK line) or 2 (one line per problem), no traceback, under 2 s each,
     nothing left in the working directory."""
     monkeypatch.chdir(tmp_path)
     rng = random.Random(1000 + seed)
