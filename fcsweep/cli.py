@@ -1,5 +1,5 @@
 """Command line, in the order of the work: ``fcsweep validate | bench | simulate | status |
-analyze | aggregate | plot | movie | refine``, and the helpers ``list-runs`` and ``compile``.
+analyze | aggregate | plot | movie | export | refine``, and the helpers ``list-runs`` and ``compile``.
 
 Every command takes an optional CONFIG (a sweep YAML file); without one it uses the
 built-in demo sweep (``fcsweep/data/smoke.yaml``, identical to ``configs/smoke.yaml``),
@@ -7,7 +7,7 @@ which writes to ``./fcsweep-demo``.  Every command that reads or writes a sweep 
 the output directory it resolved.
 
 Exit codes: 0 success; 1 some run failed or was left unfinished (the others completed),
-or a results command (status, analyze, aggregate, plot, movie) found nothing to work on
+or a results command (status, analyze, aggregate, plot, movie, export) found nothing to work on
 in the output directory (nothing was written), or aggregate found finished runs without
 a usable analysis; 2 invalid config or usage, or not enough disk space (nothing was
 written); 128 + signal number when stopped by a signal (SIGINT 130, SIGTERM 143,
@@ -40,17 +40,17 @@ def _load(config: str | None, output: str | None = None, *, to_run: bool = False
         cfg = load_config(path)
         if to_run:
             check_runnable(cfg)
+        if output:
+            cfg = cfg.with_output(output)  # with that directory's refinement points
     except ConfigError as exc:
         click.echo(f"fcsweep: invalid config: {exc}", err=True)
         sys.exit(2)
-    if output:
-        cfg = cfg.with_output(output)
     return cfg
 
 
 #: Order of the commands in ``--help``: the order of the work, then the helpers.
 COMMAND_ORDER = ("validate", "bench", "simulate", "status", "analyze", "aggregate", "plot", "refine", "movie",
-                 "list-runs", "compile")
+                 "export", "list-runs", "compile")
 
 
 class WorkflowGroup(click.Group):
@@ -215,16 +215,15 @@ def simulate(config, output, workers, executor, scheduler, task_index, retry_fai
     click.echo(
         f"fcsweep: {counts['done']} computed, {counts['skipped']} already done, "
         f"{counts['locked']} held by other processes, {counts['failed']} failed"
-        + (f", {counts['interrupted']} interrupted" if counts["interrupted"] else ""), err=True)
+        + (f", {interrupt.interrupted_phrase(outcomes)}" if counts["interrupted"] else ""), err=True)
     for o in outcomes:
         if o.outcome == "failed":
             click.echo(f"  failed: run {o.index} {o.run_id}: {o.message}", err=True)
     sig = interrupt.requested()
     if sig is not None:
-        stopped = [o for o in outcomes if o.outcome == "interrupted" and o.message != "not started"]
         again = " ".join(shlex.quote(a) for a in sys.argv[1:]) or "simulate"
-        click.echo(f"fcsweep: stopped by {interrupt.reason()} ({len(stopped)} run(s) checkpointed); "
-                   f"resume with: fcsweep {again}", err=True)
+        click.echo(f"fcsweep: stopped by {interrupt.reason()} ({interrupt.interrupted_phrase(outcomes) or 'no run'}"
+                   f"); resume with: fcsweep {again}", err=True)
         sys.exit(interrupt.exit_code(sig))
     lost = unfinished(cfg, outcomes, lock_timeout or DEFAULT_STALE_AFTER)
     for o in lost:
@@ -266,14 +265,14 @@ def _failure_advice(outcomes, arg: str) -> list[str]:
 
 def _dry_run(cfg, specs, src, out_dir, processes, force, retry_failed, stale_after, arg) -> None:
     """Print what `simulate` would do and what it would cost; write nothing."""
-    from fcsweep.sweep.bench import STARTUP_CPU_S, estimate_costs, wall_time
+    from fcsweep.sweep.bench import STARTUP_CPU_S, cpu_share, estimate_costs, wall_time
     from fcsweep.sweep.plan import ACTIONS, plan_runs
     from fcsweep.sweep.progress import format_duration
 
     plans = plan_runs(cfg, specs, force=force, retry_failed=retry_failed, stale_after=stale_after)
     click.echo(f"dry run: {len(specs)} run(s) of {src} -> {out_dir} (nothing is written)")
     work = [p for p in plans if p.steps_left > 0]
-    costs, share, source = estimate_costs(cfg, work, log=_say) if work else ([], 1.0, "")
+    costs, source = estimate_costs(cfg, work, log=_say) if work else ([], "")
     cost = {p.spec.index: c for p, c in zip(work, costs)}
     click.echo(f"{'idx':>4}  {'run_id':12}  {'action':8}  {'from step':>9}  {'steps':>9}  {'est. wall':>9}  "
                "parameters")
@@ -286,9 +285,13 @@ def _dry_run(cfg, specs, src, out_dir, processes, force, retry_failed, stale_aft
                          for a in ACTIONS if n[a] or a in ("start", "resume", "skip")))
     if work:
         cpu = STARTUP_CPU_S + sum(c for c, _ in costs)
-        wall = STARTUP_CPU_S / share + wall_time([w for _, w in costs], processes)
+        wall = STARTUP_CPU_S + wall_time([w for _, w in costs], processes)
         click.echo(f"estimated {format_duration(cpu)} of CPU and about {format_duration(wall)} of wall time on "
-                   f"{processes} process(es), start-up included [{source}]")
+                   f"{processes} process(es) with a free core each, start-up included [{source}]")
+        share = cpu_share()
+        if share < 0.9:
+            click.echo(f"note: other jobs share this machine now (this process gets {share:.0%} of a core): "
+                       f"at this load the wall time would be about {format_duration(wall / share)}")
     for line in _plan_advice(n, arg):
         click.echo(line)
 
@@ -339,12 +342,14 @@ def status(config, output, as_json, verify):
 
 @cli.command("list-runs")
 @CONFIG_ARG
+@OUTPUT_OPT
 @click.option("--count", is_flag=True, help="Print only the number of runs.")
 @click.option("--json", "as_json", is_flag=True, help="All parameters of every run as JSON.")
-def list_runs(config, count, as_json):
-    """Index, id and parameters of every run (the index is what --task-index takes)."""
-    cfg = _load(config)
-    specs = cfg.runs()
+def list_runs(config, output, count, as_json):
+    """Index, id and parameters of every run (the index is what --task-index takes;
+    points `fcsweep refine` added to the output directory, -o, included)."""
+    cfg = _load(config, output)
+    specs = _runs(cfg)
     if count:
         click.echo(len(specs))
         return
@@ -360,18 +365,20 @@ def list_runs(config, count, as_json):
 @CONFIG_ARG
 @click.option("--compare", "-c", multiple=True, type=click.Choice(["binary", "linear", "arc"]),
               help="Also time these quadratures at the same settings (repeatable).")
-@click.option("--steps", type=click.IntRange(min=1), default=200, show_default=True,
-              help="Timed steps per block at N = 1024 (scaled by 1024/N; best of 3 blocks).")
-@click.option("--warm", type=click.IntRange(min=0), default=2000, show_default=True,
-              help="Steps off the lattice before timing.")
+@click.option("--steps", type=click.IntRange(min=1), default=None,
+              help="Timed steps per block at N = 1024 (scaled by 1024/N; median of 5 blocks) "
+                   "[default: 1e5 cell-steps per block; other values are not cached].")
+@click.option("--warm", type=click.IntRange(min=0), default=None,
+              help="Steps off the lattice before timing [default: 4e5 cell-steps].")
 @click.option("--threads", type=click.IntRange(min=1), default=1, show_default=True,
-              help="numba threads per run while timing.")
+              help="numba threads per run while timing (1: CPU time; more: wall time on free cores).")
 @click.option("--workers", "-j", type=click.IntRange(min=1), default=1, show_default=True,
               help="Processes for the wall-time estimate (capped at the cores).")
 @click.option("--json", "as_json", is_flag=True, help="Machine-readable output.")
 def bench(config, compare, steps, warm, threads, workers, as_json):
     """Time the step on this machine for each cost setting of a sweep and estimate the
-    sweep's CPU and wall time (without CONFIG: the built-in demo)."""
+    sweep's CPU and wall time (without CONFIG: the built-in demo).  The timings replace
+    this machine's cached ones, which `simulate --dry-run` and `status` use."""
     from fcsweep.sweep.bench import bench_sweep, cpu_share, sweep_seconds, wall_time
     from fcsweep.sweep.layout import worker_layout
     from fcsweep.sweep.progress import format_duration
@@ -390,25 +397,27 @@ def bench(config, compare, steps, warm, threads, workers, as_json):
     if as_json:
         click.echo(json.dumps({"rows": [{**r.setting, "runs": r.runs, "cell_steps": r.cell_steps,
                                          "cell_steps_min": r.cell_steps_min, "cell_steps_per_s": r.rate,
-                                         "cpu_seconds": r.cpu_seconds, "cpu_seconds_min": r.cpu_seconds_min}
+                                         "cpu_seconds": r.cpu_seconds, "cpu_seconds_min": r.cpu_seconds_min,
+                                         "spread": r.spread}
                                         for r in rows],
                                "sweep_cpu_seconds": cpu, "sweep_cpu_seconds_min": cpu_min, "processes": processes,
                                "sweep_wall_seconds": wall, "threads": threads, "cpu_share_now": share},
                               indent=1))
         return
     click.echo(f"{'N':>6} {'modes':>5} {'K':>4} {'quadrature':>10} {'integrator':>16} {'runs':>5} "
-               f"{'cell-steps/s':>13} {'us/cell-step':>12} {'CPU time of these runs':>23}")
+               f"{'cell-steps/s':>13} {'us/cell-step':>12} {'spread':>6} {'CPU time of these runs':>23}")
     for r in rows:
         st = r.setting
         click.echo(f"{st['N']:>6} {st['modes']:>5} {st['contour_points']:>4} {st['quadrature']:>10} "
-                   f"{st['integrator']:>16} {r.runs:>5} {r.rate:>13.3e} {1e6 / r.rate:>12.3f} "
+                   f"{st['integrator']:>16} {r.runs:>5} {r.rate:>13.3e} {1e6 / r.rate:>12.3f} {r.spread:>6.0%} "
                    f"{format_duration(r.cpu_seconds):>23}")
     click.echo(f"sweep ({len(cfg.runs())} runs, {cfg.run.steps} steps each, its own quadratures): "
                f"{format_duration(cpu)} of CPU at {threads} thread(s) per run, writing included; "
                f"about {format_duration(wall)} wall on {processes} process(es)")
     if share < 0.9:
-        click.echo(f"note: other jobs share this machine (this process gets {share:.0%} of a core now); the times "
-                   "above assume free cores: `fcsweep simulate --dry-run` estimates at the load it sees")
+        click.echo(f"note: other jobs share this machine (this process gets {share:.0%} of a core now); the CPU "
+                   f"times hold, the wall time assumes free cores (at this load: about "
+                   f"{format_duration(wall / share)})")
     if cfg.run.until:
         from fcsweep.sweep.bench import first_stop
 
@@ -421,13 +430,24 @@ def bench(config, compare, steps, warm, threads, workers, as_json):
 @click.argument("config", type=click.Path(dir_okay=False))
 def validate(config):
     """Check a config file, its output directory and disk space; print the number of runs
-    or the first problem (one line, exit 2)."""
+    or every problem (their count, then one line each; exit 2)."""
     cfg = _load(config, to_run=True)
     specs = cfg.runs()
     _check_space(cfg, specs, f"invalid config: {config}: output: ")
     click.echo(f"{config}: OK, {len(specs)} runs "
                f"({' x '.join(f'{k}[{len(v)}]' for k, v in cfg.grid.items())} x {cfg.replicates} replicate(s)), "
                f"{cfg.run.steps} steps each, output {Path(cfg.output).resolve()}")
+
+
+@cli.command()
+def schema():
+    """Print the JSON Schema of sweep files (for editors' YAML completion: e.g. a first line
+    `# yaml-language-server: $schema=fcsweep-schema.json`)."""
+    import json
+
+    from fcsweep.config import json_schema
+
+    click.echo(json.dumps(json_schema(), indent=2))
 
 
 @cli.command("compile")
@@ -491,7 +511,7 @@ def aggregate(config, output):
     """Collect per-run analyses into <output>/phase_diagram.nc."""
     import xarray as xr
 
-    from fcsweep.analysis.aggregate import aggregate_sweep, replicate_error_check, unanalysed_runs
+    from fcsweep.analysis.aggregate import aggregate_sweep, point_summaries, replicate_error_check, unanalysed_runs
 
     cfg = _load(config, output)
     out = _announce(cfg)
@@ -503,6 +523,8 @@ def aggregate(config, output):
     with xr.open_dataset(path) as ds:
         missing = unanalysed_runs(ds)
         check = replicate_error_check(ds)
+        for line in point_summaries(ds):
+            click.echo(line)
     for name, (chi2, points) in check.items():
         click.echo(f"replicate check: {name} chi2/dof median {chi2:.2f} over {points} point(s)"
                    + (" -- per-run errors look too small" if chi2 > 2 else ""))
@@ -520,6 +542,7 @@ def aggregate(config, output):
 @click.option("--outdir", type=click.Path(file_okay=False), default=None, help="Where figures go.")
 def plot(config, output, run, frame, outdir):
     """Figures of the sweep (phase diagram and companions) or a snapshot of one run."""
+    _headless()
     from fcsweep.analysis.figures import NothingToPlot, plot_sweep
     from fcsweep.analysis.pipeline import DATASET_FILE
 
@@ -539,9 +562,17 @@ def plot(config, output, run, frame, outdir):
         click.echo(str(p))
 
 
+def _headless() -> None:
+    """Select matplotlib's Agg backend: the commands write figure files and show none, on
+    machines without a display too (importing the figure module leaves the backend alone)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+
+
 def _trajectory_or_exit(cfg, run, out, config, output) -> Path:
     """The finished trajectory of run ``run``; exit 2 for an unknown run, 1 if not done."""
-    from fcsweep.analysis.figures import run_trajectory
+    from fcsweep.analysis.results import run_trajectory
 
     try:
         traj = run_trajectory(cfg, run)
@@ -572,6 +603,7 @@ def movie(run, config, output, fps, every, dpi, out_file):
     RUN is a run id or index of the sweep CONFIG (default: the built-in demo), or the
     path of a trajectory.h5.  Needs the `movie` extra: pip install 'fcsweep[movie]'.
     """
+    _headless()
     from fcsweep.analysis.figures import movie_run
 
     if run.endswith(".h5") and Path(run).is_file():
@@ -585,6 +617,55 @@ def movie(run, config, output, fps, every, dpi, out_file):
     except ImportError as exc:
         _say(str(exc))
         sys.exit(2)
+    click.echo(str(path))
+
+
+@cli.command()
+@click.argument("run")
+@CONFIG_ARG
+@OUTPUT_OPT
+@click.option("--format", "fmt", type=click.Choice(["gsd", "vtk"]), default="gsd", show_default=True,
+              help="gsd: one file for OVITO / MDAnalysis / freud; vtk: .vtp series + .pvd for ParaView.")
+@click.option("--frames", default="all", show_default=True,
+              help="Frames to export: all, an index (-1 = last), a slice 0:100:10, or a comma list.")
+@click.option("--out", "out_path", type=click.Path(), default=None,
+              help="GSD file or VTK directory [./<run id>.gsd or ./<run id>_vtk].")
+@click.option("--unwrapped", is_flag=True, help="Unwrapped centroids instead of wrapped ones with image counts.")
+@click.option("--polygons", is_flag=True,
+              help="GSD: each cell its own type with its contour as a Polygon shape (true shapes in OVITO).")
+@click.option("--images", is_flag=True, help="VTK: also draw periodic copies of cells crossing the box edge.")
+@click.option("--ascii", "as_ascii", is_flag=True, help="VTK: ascii instead of base64 binary data.")
+@click.option("--no-defects", is_flag=True,
+              help="Leave out defect / n_sides / cluster (skips a Voronoi tessellation per frame: faster for large N).")
+def export(run, config, output, fmt, frames, out_path, unwrapped, polygons, images, as_ascii, no_defects):
+    """Export one run for viewers: GSD (OVITO, MDAnalysis) or VTK (ParaView), with q,
+    defect flag, defect cluster id and Fourier coefficients per cell, and a progress bar.
+
+    RUN is a run id or index of the sweep CONFIG (default: the built-in demo), or the
+    path of a trajectory.h5.  The run directory is only read.
+    """
+    from fcsweep.analysis.export import export_gsd, export_vtk
+    from fcsweep.analysis.trajectory import TrajectoryError
+
+    if run.endswith(".h5") and Path(run).is_file():
+        traj = Path(run)
+    else:
+        cfg = _load(config, output)
+        out = _announce(cfg)
+        traj = _trajectory_or_exit(cfg, run, out, config, output)
+    run_id = traj.parent.name if traj.name == "trajectory.h5" else traj.stem
+    try:
+        if fmt == "gsd":
+            path = export_gsd(traj, out_path or f"{run_id}.gsd", frames=frames, unwrapped=unwrapped,
+                              polygons=polygons, defects=not no_defects)
+        else:
+            path = export_vtk(traj, out_path or f"{run_id}_vtk", frames=frames, unwrapped=unwrapped,
+                              images=images, binary=not as_ascii, defects=not no_defects)
+    except (ImportError, ValueError) as exc:
+        _say(str(exc))
+        sys.exit(2)
+    except TrajectoryError as exc:
+        _nothing(str(exc))
     click.echo(str(path))
 
 
@@ -621,12 +702,22 @@ def refine(config, output, rounds, max_points, workers, add_only, quiet):
         before = len(_runs(cfg))
         if not _refine_add(cfg, path, max_points):
             break
+        cfg = _rebind(cfg)  # the runs now include the points just recorded
         if add_only:
             last = len(_runs(cfg)) - 1
             click.echo(f"fcsweep: new runs {before}..{last}, e.g. sbatch --array={before}-{last} "
                        f"workflows/slurm_array.sh {config}", err=True)
     if failed:
         sys.exit(1)
+
+
+def _rebind(cfg: SweepConfig) -> SweepConfig:
+    """``cfg`` with the refinement points now recorded (exit 2 if the file does not fit)."""
+    try:
+        return cfg.with_refinement()
+    except ConfigError as exc:
+        click.echo(f"fcsweep: invalid config: {exc}", err=True)
+        sys.exit(2)
 
 
 def _runs(cfg: SweepConfig) -> list:

@@ -1,7 +1,9 @@
 """Figures are produced from a phase-diagram dataset, also for 1-D grids and single points,
-and say what a reader needs: phases as regions (undetermined ones distinct), log axes for
-log grids, error bars where errors exist, one panel per v0, a caption with N, run length
-and quadrature."""
+and say what a reader needs: phases as regions (undetermined ones distinct, with their
+reason), log axes for log grids, error bars where errors exist, hollow markers where the
+label rule did not accept a value, one panel per v0, a caption with N, run length and
+quadrature, units on eta, v0 and t; they fit a paper column, draw into given axes, leave
+matplotlib's backend alone, and movies are frames of whole H.264 macro blocks."""
 
 import json
 
@@ -223,3 +225,215 @@ def test_palettes_are_colour_blind_safe():
     rgb = plots._colors(6)[:, :3]
     luminance = rgb @ np.array([0.2126, 0.7152, 0.0722])
     assert luminance.max() < 0.8  # viridis stops before its pale yellow end (luminance 0.87)
+
+
+# ------------------------------------------------------------------ what is decided, units, sizes
+
+def _undetermined(ds, reasons):
+    """``with_statistics`` plus a reason per run; the points of ``reasons`` (eta index,
+    v0 index) -> text are undetermined."""
+    ds = with_statistics(ds)
+    ds["phase"][1, 1] = 1  # only the points named below are undetermined
+    why = np.full(ds["phase"].shape, "P(fluid) = 0.99", dtype=object)
+    for (i, j), text in reasons.items():
+        ds["phase"][i, j] = 3
+        why[i, j] = text
+    ds["phase_reason"] = (ds["phase"].dims, why)
+    return ds
+
+
+TOO_SHORT = ("run too short for D_eff: 4 time units analysed, need 8/Dr = 800; no cage broken within "
+             "the window (cage-relative MSD 0.0005 +- 0.0001 a^2 over 4 time units); a longer run decides")
+NEAR_Q = "<q> = 3.8 +- 0.02 too close to 3.81 (P = 0.61 < 0.84)"
+
+
+@pytest.mark.parametrize("text, short", [
+    (TOO_SHORT, "too short, cage not broken"),
+    ("D_eff = 0.0011 +- 0.0004 too close to the solid threshold 0.001 (P = 0.6 < 0.84)", "near threshold"),
+    (NEAR_Q, "<q> near 3.81"),
+    ("MSD not diffusive within the run: D_eff 0.1 +- 0.01, ...", "not settled"),
+    ("D_eff not available", "no data"),
+    ("", ""),
+    ("something entirely new happened here", "something entirely new"),
+])
+def test_short_reason_names_the_cause_in_few_words(text, short):
+    assert plots.short_reason(text) == short
+
+
+def test_d_eff_values_the_label_rule_did_not_accept_are_hollow():
+    ds = _undetermined(synthetic_dataset(), {(1, 1): TOO_SHORT, (2, 0): NEAR_Q})
+    ds["phase"][3, 2] = -1  # no label at all: not accepted either
+    ax = plots.d_eff_curves(ds).axes[0]
+    hollow = [ln for ln in ax.get_lines() if ln.get_gid() == "not_accepted"]
+    filled = [ln for ln in ax.get_lines() if ln.get_gid() == "accepted"]
+    assert sum(len(ln.get_xdata()) for ln in hollow) == 3
+    assert sum(len(ln.get_xdata()) for ln in filled) == ds.sizes["eta"] * ds.sizes["v0"] - 3
+    assert all(matplotlib.colors.same_color(ln.get_markerfacecolor(), "w") for ln in hollow)
+    assert not any(matplotlib.colors.same_color(ln.get_markerfacecolor(), "w") for ln in filled)
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert labels == ["label decided", "undetermined label"]
+    # every label decided: no hollow marker, no legend
+    ax = plots.d_eff_curves(synthetic_dataset()).axes[0]
+    assert not [ln for ln in ax.get_lines() if ln.get_gid() == "not_accepted"] and ax.get_legend() is None
+    matplotlib.pyplot.close("all")
+
+
+def test_phase_diagram_writes_each_undetermined_points_reason():
+    ds = _undetermined(synthetic_dataset(), {(1, 1): TOO_SHORT, (2, 0): NEAR_Q})
+    ax = plots.phase_diagram(ds).axes[0]
+    texts = sorted(t.get_text().replace("\n", " ") for t in ax.texts if t.get_gid() == "reason")
+    assert texts == ["<q> near 3.81", "too short, cage not broken"]
+    assert not [t for t in plots.phase_diagram(ds, reasons=False).axes[0].texts if t.get_gid() == "reason"]
+    # two replicates with different decided labels: that is the reason
+    plain = _undetermined(synthetic_dataset(Ns=(64,)), {})
+    other = plain.copy(deep=True)
+    other["phase"][0, 0] = 0 if int(plain["phase"][0, 0, 0, 0]) != 0 else 1
+    two = xr.concat([plain, other], "replicate").assign_coords(replicate=[0, 1])
+    texts = [t.get_text() for t in plots.phase_diagram(two).axes[0].texts if t.get_gid() == "reason"]
+    assert texts == ["replicates\ndisagree"] or texts == ["replicates disagree"]
+    matplotlib.pyplot.close("all")
+
+
+def _with_kthny(ds):
+    ds = ds.copy()
+    k = np.where(ds["phase"] == 0, 0, 2).astype(np.int8)  # solid -> solid, moving -> liquid
+    ds["kthny"] = (ds["phase"].dims, k)
+    ds["kthny"][2, 1] = 1
+    ds["kthny"][0, 0] = 3
+    ds["kthny"].attrs.update(flag_values=np.array([-1, 0, 1, 2, 3], dtype=np.int8),
+                             flag_meanings="unknown solid hexatic liquid undetermined")
+    return ds
+
+
+def test_summary_diagram_only_when_the_dataset_has_kthny_labels(tmp_path, monkeypatch):
+    monkeypatch.setattr(plots, "SWEEP_FIGURES", {"phase_diagram": plots.phase_diagram})  # the others: above
+    ds = synthetic_dataset(Ns=(64,))
+    names = {p.name for p in plots.plot_dataset(ds, tmp_path / "a")}
+    assert "phase_diagram.png" in names and "summary.png" not in names
+    names = {p.name for p in plots.plot_dataset(_with_kthny(ds), tmp_path / "b")}
+    assert {"summary.png", "summary.pdf"} <= names
+    with pytest.raises(ValueError, match="kthny"):
+        plots.summary_diagram(ds)
+    matplotlib.pyplot.close("all")
+
+
+def test_summary_labels_follow_kthny_and_name_soft_fluids():
+    ds = _with_kthny(synthetic_dataset())
+    lab = plots.summary_labels(ds)  # (v0, eta) at the largest N
+    phase = ds["phase"].isel(N=-1, replicate=0).values.T
+    assert lab[1, 2] == "hexatic" and lab[0, 0] == "undetermined"
+    liquid = (ds["kthny"].isel(N=-1, replicate=0).values.T == 2)
+    assert np.all(lab[liquid & (phase == 2)] == "soft_fluid") and np.all(lab[liquid & (phase == 1)] == "liquid")
+    ax = plots.summary_diagram(ds).axes[0]
+    assert {t.get_text() for t in ax.get_legend().get_texts()} >= {"solid", "hexatic", "undetermined"}
+    hatched = [c for c in ax.collections if c.get_gid() == "undetermined"]
+    assert len(hatched) == 1 and hatched[0].get_hatch()
+    matplotlib.pyplot.close("all")
+
+
+def test_drawing_functions_draw_into_a_given_axes():
+    ds = with_statistics(synthetic_dataset())
+    fig, axes = matplotlib.pyplot.subplots(2, 3)
+    a = axes.ravel()
+    assert plots.phase_diagram(ds, ax=a[0]) is fig and a[0].collections
+    assert plots.d_eff_curves(ds, ax=a[1]) is fig and a[1].get_lines()
+    assert plots.msd_curves(ds, ax=a[2]) is fig and a[2].get_lines()
+    assert plots.largest_cluster(ds, ax=a[3]) is fig and a[3].containers
+    pos, box = hexagonal_lattice(16)
+    none = np.zeros((16, 0))
+    assert plots.snapshot(pos, np.zeros(16), none, none, box, np.full(16, 3.6), np.zeros(16, bool), ax=a[4]) is fig
+    assert a[4].collections[0].get_paths()
+    assert len(matplotlib.pyplot.get_fignums()) == 1  # nothing drawn elsewhere
+    fig2, panels = matplotlib.pyplot.subplots(1, ds.sizes["v0"])
+    assert plots.q_distributions(ds, axes=panels) is fig2 and all(p.get_lines() for p in panels)
+    matplotlib.pyplot.close("all")
+
+
+def test_importing_the_figures_module_leaves_the_backend_alone():
+    import subprocess
+    import sys
+
+    code = ("import matplotlib; matplotlib.use('pdf'); import fcsweep.analysis.figures; "
+            "print(matplotlib.get_backend())")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip().lower() == "pdf"
+
+
+def test_default_sizes_fit_a_paper_column_or_two():
+    ds = with_statistics(synthetic_dataset())
+    for fn in (plots.phase_diagram, plots.d_eff_curves, plots.largest_cluster, plots.msd_curves):
+        assert fn(ds).get_figwidth() <= plots.COLUMN
+    for fn in (plots.q_distributions, plots.cluster_sizes, plots.correlations):
+        assert fn(ds).get_figwidth() <= plots.DOUBLE_COLUMN
+    assert plots.summary_diagram(_with_kthny(ds)).get_figwidth() <= plots.COLUMN
+    fig = plots.phase_diagram(ds)
+    assert fig.axes[0].get_xlabel().endswith("[$F$]") and fig.axes[0].get_ylabel().endswith(r"[$\mu F$]")
+    assert plots.msd_curves(ds).axes[0].get_xlabel().endswith(f"[{plots.TIME_UNIT}]")
+    matplotlib.pyplot.close("all")
+
+
+def test_power_law_guides_leave_the_range_to_the_data():
+    ds = synthetic_dataset()
+    ds["G6"][:] = 0.1 * ds["r"] ** -0.25  # G6 0.056-0.18: a guide from 1 at r = 1 would widen the axis
+    ax = plots.correlations(ds).axes[1]
+    lo, hi = ax.get_ylim()
+    data = np.concatenate([ln.get_ydata() for ln in ax.get_lines() if ln.get_gid() != "guide"])
+    span = data.max() / data.min()
+    assert data.min() / span ** 0.06 <= lo <= data.min() and data.max() <= hi <= data.max() * span ** 0.06
+    guide = [ln for ln in ax.get_lines() if ln.get_gid() == "guide"]
+    assert len(guide) == 1 and np.all((guide[0].get_ydata() > lo) & (guide[0].get_ydata() < hi))  # in view
+    matplotlib.pyplot.close("all")
+
+
+def test_cluster_colour_bar_only_when_clusters_are_drawn():
+    ds = synthetic_dataset()
+    n = ds.sizes["v0"]
+    assert len(plots.cluster_sizes(ds).axes) == n + 1  # panels and the eta colour bar
+    ds["cluster_size_distribution"][:] = 0.0
+    fig = plots.cluster_sizes(ds)
+    assert len(fig.axes) == n and all(not ax.get_lines() for ax in fig.axes)
+    matplotlib.pyplot.close("all")
+
+
+class _FakeTrajectory:
+    """The parts of :class:`fcsweep.analysis.trajectory.Trajectory` that frames read."""
+
+    def __init__(self, n_frames=3):
+        self.pos, self.box = hexagonal_lattice(16)
+        self.params = {"run_id": "abc", "eta": 0.05, "v0": 0.03, "R0": 1.0}
+        self.time = np.arange(n_frames) * 2.5
+        self.n_frames = n_frames
+        self.fields = {"position", "theta"}
+
+    def read(self, name, frames):
+        if name == "position":
+            return np.stack([self.pos + 0.01 * k for k in frames])
+        return np.zeros((len(frames), len(self.pos)))
+
+
+def test_snapshot_title_has_model_units(tmp_path, monkeypatch):
+    import fcsweep.analysis.trajectory as trajectory
+
+    monkeypatch.setattr(trajectory, "open_trajectory", lambda p: _FakeTrajectory())
+    title = plots._frame_title(_FakeTrajectory(), 1, np.zeros(16, bool))
+    assert rf"t = 2.5 {plots.TIME_UNIT}" in title and r"$\eta$ = 0.05 $F$" in title and r"0.03 $\mu F$" in title
+    paths = plots.snapshot_run(tmp_path / "trajectory.h5", 1)
+    assert all(p.exists() for p in paths)
+
+
+def test_movie_frames_are_whole_macro_blocks(tmp_path, monkeypatch, caplog):
+    pytest.importorskip("imageio_ffmpeg")
+    import imageio.v2 as imageio
+
+    import fcsweep.analysis.trajectory as trajectory
+
+    monkeypatch.setattr(trajectory, "open_trajectory", lambda p: _FakeTrajectory())
+    for dpi in (97, 120):  # 120 dpi gave 852 x 683 before
+        art = plots.FrameArtist(_FakeTrajectory().box, width=plots.SLIDE, dpi=dpi, style=plots.SLIDE_STYLE)
+        h, w, _ = art.rgb().shape
+        assert h % 16 == 0 and w % 16 == 0
+    with caplog.at_level("WARNING"):
+        out = plots.movie_run(tmp_path / "trajectory.h5", tmp_path / "m.mp4", dpi=97, progress=False)
+    assert not [r for r in caplog.records if "macro_block_size" in r.getMessage()]
+    with imageio.get_reader(out) as reader:
+        assert reader.count_frames() == 3

@@ -84,18 +84,18 @@ def test_changed_run_length_extends_and_changed_sampling_is_advised_force(done, 
     """More steps: the dry run and status say the done runs will be extended. Another
     sample_every: refused, with --force (never --retry-failed) as the advice."""
     longer = tmp_path / "longer.yaml"
-    longer.write_text(SMOKE.read_text().replace("steps: 2000", "steps: 4000"))
+    longer.write_text(SMOKE.read_text().replace("steps: 100000", "steps: 200000"))
     r = invoke("simulate", longer, "-o", done, "--dry-run")
-    assert r.exit_code == 0 and "4 to extend" in r.output and "to 4000 steps" in r.output, r.output
+    assert r.exit_code == 0 and "4 to extend" in r.output and "to 200000 steps" in r.output, r.output
     r = invoke("status", longer, "-o", done)
-    assert "will be extended: to 4000 steps" in r.output, r.output
+    assert "will be extended: to 200000 steps" in r.output, r.output
     resampled = tmp_path / "resampled.yaml"
-    resampled.write_text(SMOKE.read_text().replace("sample_every: 50", "sample_every: 100"))
+    resampled.write_text(SMOKE.read_text().replace("sample_every: 400", "sample_every: 500"))
     r = invoke("simulate", resampled, "-o", done, "--dry-run")
-    assert r.exit_code == 0 and "4 blocked" in r.output and "sample_every 50 -> 100" in r.output, r.output
+    assert r.exit_code == 0 and "4 blocked" in r.output and "sample_every 400 -> 500" in r.output, r.output
     assert "--force" in r.output and "--retry-failed" not in r.output
     r = invoke("status", resampled, "-o", done)
-    assert "computed with other run settings (sample_every 50 -> 100)" in r.output
+    assert "computed with other run settings (sample_every 400 -> 500)" in r.output
     assert "--force" in r.output and "--retry-failed" not in r.output
     r = invoke("simulate", resampled, "-o", done, "-q")
     assert r.exit_code == 1

@@ -67,8 +67,9 @@ def synthetic(tmp_path):
             write_trajectory(rd / "trajectory.h5", {**dict(spec.params), "run_id": spec.run_id},
                              fluid=spec.params["eta"] < 0.05, seed=spec.index)
             (rd / "status.json").write_text(json.dumps({"status": "done", "steps_done": 2000, "cell_steps": 72000}))
-        analyze_sweep(cfg)
-        return aggregate_sweep(cfg)
+        bound = cfg.with_refinement()  # the points recorded so far, as the commands read them
+        analyze_sweep(bound)
+        return aggregate_sweep(bound)
 
     return cfg, make
 
@@ -82,7 +83,8 @@ def test_refined_points_are_runs_and_aggregate_holds_a_non_product_grid(syntheti
     props = propose_points(labels, cfg.swept, max_points=1)
     assert len(props) == 1 and props[0].point["eta"] == 0.055  # linear axis: arithmetic midpoint
     append_round(cfg.output, [p.point for p in props], [p.why for p in props], "now")
-    runs = cfg.runs()
+    assert len(cfg.runs()) == 4  # a config reads the refinement file once, when it is bound
+    runs = cfg.with_refinement().runs()
     assert len(runs) == 5 and runs[4].index == 4 and runs[4].params["eta"] == 0.055
     assert [r.run_id for r in runs[:4]] == [r.run_id for r in parse_config(YAML.format(out=tmp_path / "x")).runs()]
     listed = CliRunner().invoke(cli, ["list-runs", "--count", str(_yaml(tmp_path))])
@@ -109,7 +111,7 @@ def test_refinement_file_must_fit_the_grid(tmp_path):
     cfg = parse_config(YAML.format(out=tmp_path))
     append_round(tmp_path, [{"eta": 0.05}], ["test"], "now")
     with pytest.raises(ConfigError, match="refinement.json point 0 has parameters"):
-        cfg.runs()
+        cfg.with_refinement().runs()
 
 
 REAL = """
@@ -148,5 +150,6 @@ def test_refine_add_only_records_points_and_prints_their_indices(synthetic, tmp_
     res = CliRunner().invoke(cli, ["refine", str(_yaml(tmp_path)), "--add-only", "--max-points", "2"])
     assert res.exit_code == 0, res.output
     assert "new runs 4..5, e.g. sbatch --array=4-5" in res.output
+    cfg = cfg.with_refinement()
     assert len(read_points(tmp_path)) == 2 and len(cfg.runs()) == 6
     assert not any((tmp_path / "runs" / r.run_id).exists() for r in cfg.runs()[4:])  # nothing computed

@@ -40,8 +40,9 @@ from fcsweep.analysis.phase import (MIN_CONFIDENCE, PERCOLATION_FLAGS, PHASE_FLA
                                     classify_phase, flag_attrs)
 from fcsweep.analysis.cage import BOUND_FACTOR
 from fcsweep.analysis.diffusion import D_EFF_SOLID
-from fcsweep.analysis.percolation import fisher_observables
+from fcsweep.analysis.percolation import fisher_observables, fss_collapse
 from fcsweep.analysis.stats import combine
+from fcsweep.io.sweepdir import run_path, run_state
 from fcsweep.analysis.pipeline import (ANALYSIS_ERROR_FILE, ANALYSIS_FILE, CURVES, DATASET_FILE, _read_status,
                                       read_analysis)
 
@@ -131,6 +132,15 @@ META = {
     "tau_fisher": ("Fisher exponent of the defect cluster sizes (replicates pooled; critical 187/91)", "1"),
     "tau_fisher_err": ("1-sigma error of tau_fisher", "1"),
     "tau_fisher_reason": ("why tau_fisher is undetermined or flagged (empty: a usable fit)", ""),
+    "fss_rho_c": ("percolation threshold of rho_d from the finite-size collapse of largest_cluster_fraction "
+                  "over N and eta (critical 1/2)", "1"),
+    "fss_rho_c_err": ("1-sigma bootstrap error of fss_rho_c", "1"),
+    "fss_nu": ("correlation-length exponent nu of the finite-size collapse (critical 4/3)", "1"),
+    "fss_nu_err": ("1-sigma bootstrap error of fss_nu", "1"),
+    "fss_beta": ("order-parameter exponent beta of the finite-size collapse (critical 5/36)", "1"),
+    "fss_beta_err": ("1-sigma bootstrap error of fss_beta", "1"),
+    "fss_quality": ("collapse quality S at the fit (~1: the sizes collapse within their errors)", "1"),
+    "fss_reason": ("why the finite-size collapse is undetermined or flagged (empty: a usable fit)", ""),
     "status": ("run and analysis status", "1"),
     "n_frames": ("frames after the transient used for the MSD", "1"),
     "n_structure_frames": ("frames used for Voronoi, defect and order statistics", "1"),
@@ -151,7 +161,7 @@ SCALAR_VARS = ("D_eff", "D_eff_err", "D_eff_err_time", "D_eff_err_cells", "D_eff
 REPLICATE_VARS = ("D_eff", "q_mean", "q_frac_above", "rho_d", "largest_cluster_fraction", "psi6",
                   "cage_msd_ratio")
 #: Per-run strings, written as CF character arrays.
-STRING_VARS = ("run_id", "seed", "phase_reason", "percolated_reason", "tau_fisher_reason")
+STRING_VARS = ("run_id", "seed", "phase_reason", "percolated_reason", "tau_fisher_reason", "fss_reason")
 
 
 def _key(x):
@@ -200,6 +210,19 @@ def _attrs(name: str) -> dict:
     return out
 
 
+def _frames_after_transient(sc: dict) -> float:
+    """Frames after the transient, from which the Voronoi statistics take theirs.
+
+    ``n_frames`` counts the frames after the equilibration cut (``t_equilibrated``), the
+    equally spaced tail of those after the transient (``t_start`` .. ``t_end``), so
+    the frame interval is ``(t_end - t_equilibrated) / (n_frames - 1)``.
+    """
+    nf, t0, t1, te = (float(sc.get(k, np.nan)) for k in ("n_frames", "t_start", "t_end", "t_equilibrated"))
+    if not (np.isfinite(nf) and nf >= 2 and np.isfinite(t0) and np.isfinite(t1) and np.isfinite(te) and t1 > te):
+        return nf
+    return float(np.rint((nf - 1.0) * (t1 - t0) / (t1 - te)) + 1.0)
+
+
 def build_dataset(config) -> xr.Dataset:
     """Phase-diagram dataset of a sweep from its runs' ``analysis.h5`` files.
 
@@ -235,14 +258,13 @@ def build_dataset(config) -> xr.Dataset:
                     for d in dims)
         strings["run_id"][loc] = spec.run_id
         strings["seed"][loc] = str(spec.params.get("seed", ""))
-        rd = Path(config.output) / "runs" / spec.run_id
-        st = _read_status(rd)
-        if st is None:
+        rd = run_path(config.output, spec.run_id)
+        rs = run_state(rd)  # the state `fcsweep status` shows
+        if rs.status is None and rs.state == "pending":
             status[loc] = 5
             continue
-        s = st.get("status")
-        if s != "done":
-            status[loc] = _RUN_STATUS.get(s, 5)
+        if rs.state != "done":
+            status[loc] = _RUN_STATUS.get(rs.state, 5)
             continue
         if (rd / ANALYSIS_ERROR_FILE).exists():
             status[loc] = 6
@@ -290,7 +312,7 @@ def build_dataset(config) -> xr.Dataset:
         for v in SCALAR_VARS:
             data[v][loc] = sc.get(v, np.nan)
         sset = res["settings"]
-        nf = sc.get("n_frames", np.nan)
+        nf = _frames_after_transient(sc)
         data["n_structure_frames"][loc] = min(nf, sset.get("structure_frames", nf)) if np.isfinite(nf) else np.nan
         phase[loc] = int(sc["phase"]) if np.isfinite(sc.get("phase", np.nan)) else -1
         perc[loc] = int(sc["percolated"]) if np.isfinite(sc.get("percolated", np.nan)) else -1
@@ -412,6 +434,7 @@ def _reduce_replicates(ds: xr.Dataset, settings) -> None:
     ds["percolated_point"] = (dims, perc, {**_attrs("percolated_point"), **flag_attrs(PERCOLATION_FLAGS)})
     ds["percolated_point_confidence"] = (dims, cconf, _attrs("percolated_point_confidence"))
     _fisher_exponents(ds)
+    _fss(ds)
 
 
 def _fisher_exponents(ds: xr.Dataset) -> None:
@@ -438,6 +461,45 @@ def _fisher_exponents(ds: xr.Dataset) -> None:
         tau[idx], err[idx], why[idx] = r["tau_fisher"], r["tau_fisher_err"], r["tau_fisher_reason"]
     for name, arr in (("tau_fisher", tau), ("tau_fisher_err", err), ("tau_fisher_reason", why)):
         ds[name] = (dims, arr, _attrs(name))
+
+
+#: Variables of the finite-size collapse, in the order of its fit's fields.
+FSS_VARS = ("fss_rho_c", "fss_rho_c_err", "fss_nu", "fss_nu_err", "fss_beta", "fss_beta_err", "fss_quality")
+
+
+def _fss(ds: xr.Dataset) -> None:
+    """Finite-size collapse of the largest defect cluster, one per v0 (in place).
+
+    Only for datasets with two or more N.  Each slice of the dimensions other than
+    ``eta``, ``N`` and ``replicate`` (v0 and any other swept parameter) is one fit:
+    its points are the replicate means ``largest_cluster_fraction_rmean`` (with their
+    errors) against ``rho_d_rmean`` over every eta and N, because eta moves rho_d
+    through the threshold at fixed v0 while N supplies the sizes
+    (:func:`fcsweep.analysis.percolation.fss_collapse`; the error of rho_d is not used).
+    """
+    if ds.sizes.get("N", 1) < 2:
+        return
+    names = ("rho_d_rmean", "largest_cluster_fraction_rmean", "largest_cluster_fraction_rmean_err")
+    rho, pmax, err = (ds[v].transpose("eta", "N", ...) for v in names)
+    dims = list(rho.dims[2:])
+    shape = rho.shape[2:]
+    Ns = np.broadcast_to(ds["N"].values.astype(float)[None, :], rho.shape[:2])
+    out = np.full(shape + (len(FSS_VARS),), np.nan)
+    why = np.full(shape, "", dtype=object)
+    for idx in np.ndindex(shape):
+        sl = (slice(None), slice(None)) + idx
+        r, p, e = rho.values[sl].ravel(), pmax.values[sl].ravel(), err.values[sl].ravel()
+        n = Ns.ravel()
+        ok = np.isfinite(r) & np.isfinite(p)
+        if np.unique(n[ok]).size < 2:
+            why[idx] = "fewer than two N with finite rho_d and largest_cluster_fraction"
+            continue
+        fit = fss_collapse(r[ok], p[ok], n[ok], np.where(np.isfinite(e[ok]), e[ok], 0.0))
+        out[idx] = [fit[k.removeprefix("fss_")] for k in FSS_VARS]
+        why[idx] = fit.reason
+    for k, name in enumerate(FSS_VARS):
+        ds[name] = (dims, out[..., k], _attrs(name))
+    ds["fss_reason"] = (dims, why, _attrs("fss_reason"))
 
 
 def write_dataset(ds: xr.Dataset, path) -> Path:
@@ -473,6 +535,28 @@ def replicate_error_check(ds: xr.Dataset) -> dict:
         if vals.size:
             out[v] = (float(np.median(vals)), int(vals.size))
     return out
+
+
+def point_summaries(ds: xr.Dataset) -> list[str]:
+    """One line per grid point and replicate: its coordinates and the phase label with its
+    confidence, or the reason it is undetermined (what ``fcsweep aggregate`` prints)."""
+    phase = ds["phase"]
+    lines = []
+    for idx in np.ndindex(phase.shape):
+        where = " ".join(f"{d}={_grid_word(ds[d].values[i])}" for d, i in zip(phase.dims, idx)
+                         if d != "replicate" or ds.sizes["replicate"] > 1)
+        code = int(phase.values[idx])
+        word = PHASE_FLAGS.get(code, "unknown").replace("_", "-")
+        if code in (0, 1, 2):
+            lines.append(f"{where}: {word} (P = {float(ds['phase_confidence'].values[idx]):.3f})")
+        else:
+            why = str(ds["phase_reason"].values[idx]) or STATUS_FLAGS.get(int(ds["status"].values[idx]), "")
+            lines.append(f"{where}: {word}: {why}")
+    return lines
+
+
+def _grid_word(v) -> str:
+    return f"{v:.4g}" if isinstance(v, (float, np.floating)) else str(v)
 
 
 def unanalysed_runs(ds: xr.Dataset) -> list[tuple[str, str]]:

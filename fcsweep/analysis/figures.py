@@ -1,43 +1,48 @@
-"""Figures of a sweep and of one run, fit for a paper or a talk (matplotlib, Agg).
-
-Two layers in one module:
+"""Figures of a sweep and of one run, fit for a paper or a talk (matplotlib).
 
 * drawing -- functions that take arrays or the phase-diagram :class:`xarray.Dataset`
   and return a :class:`matplotlib.figure.Figure` (:func:`phase_diagram`,
   :func:`d_eff_curves`, :func:`q_distributions`, :func:`largest_cluster`,
-  :func:`cluster_sizes`, :func:`correlations`, :func:`msd_curves`, :func:`snapshot`);
+  :func:`cluster_sizes`, :func:`correlations`, :func:`msd_curves`,
+  :func:`summary_diagram`, :func:`snapshot`).  Each takes ``ax=None`` (or ``axes=None``
+  for the figures of several panels): given, it draws into those axes, else it makes a
+  figure;
 * files -- :func:`plot_sweep`, :func:`plot_dataset`, :func:`snapshot_run` and
-  :func:`movie_run` read ``phase_diagram.nc`` or a trajectory and write figure files.
+  :func:`movie_run` write figure files; finding them is :mod:`fcsweep.analysis.results`.
 
-Conventions: colour-blind-safe palettes (viridis for ordered values, truncated before
-its pale yellow end; Okabe--Ito for categories), fonts sized for a 300-dpi PNG and for a
-slide, a caption line with N, run length and quadrature, log axes where a swept grid is
+Importing the module leaves matplotlib's backend alone (a notebook keeps its own); the
+command line selects Agg.  Conventions: colour-blind-safe palettes (viridis for ordered
+values, truncated before its pale yellow end; Okabe--Ito for categories); single-panel
+figures one paper column wide (:data:`COLUMN` = 3.4 in), figures of several panels two
+columns (:data:`DOUBLE_COLUMN` = 7.0 in), fonts legible at that size and on a slide; a
+caption line with N, run length and quadrature; eta, v0 and t in model units
+(:data:`ETA_LABEL`, :data:`V0_LABEL`, :data:`TIME_UNIT`); log axes where a swept grid is
 logarithmic, symlog where a quantity changes sign.  Every drawing function accepts 1-D
-grids and single points; contours that need a 2-D grid with values on both sides of
-the level are skipped.  Datasets with the ``<name>_err`` variables and the
-``undetermined`` phase code get error bars and hatched cells; older ones draw without.
+grids and single points; contours that need a 2-D grid with values on both sides of the
+level are skipped.  Datasets with the ``<name>_err`` variables and the ``undetermined``
+phase code get error bars, hollow markers and hatched cells; older ones draw without.
 """
 
 from __future__ import annotations
 
 import functools
-import textwrap
 import json
+import re
+import textwrap
 from pathlib import Path
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.collections import PolyCollection
+from matplotlib.colors import BoundaryNorm, ListedColormap, Normalize
+from matplotlib.lines import Line2D
+from matplotlib.patches import Patch, Rectangle
+from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.collections import PolyCollection  # noqa: E402
-from matplotlib.colors import BoundaryNorm, ListedColormap, Normalize  # noqa: E402
-from matplotlib.patches import Patch, Rectangle  # noqa: E402
-from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter  # noqa: E402
-
-from fcsweep.analysis.diffusion import D_EFF_SOLID  # noqa: E402
-from fcsweep.analysis.phase import PHASE_FLAGS, RHO_D_PERCOLATION  # noqa: E402
-from fcsweep.model.shape import Q_STAR  # noqa: E402
+from fcsweep.analysis.diffusion import D_EFF_SOLID
+from fcsweep.analysis.phase import PHASE_FLAGS, RHO_D_PERCOLATION
+from fcsweep.analysis.results import find_run, has_analysed_run, run_trajectory, sweep_dataset
+from fcsweep.model.shape import Q_STAR
 
 TAU_PERC = 187.0 / 91.0
 #: Okabe & Ito (2008) colour-blind-safe palette.
@@ -47,12 +52,21 @@ OKABE_ITO = {"black": "#000000", "orange": "#E69F00", "sky": "#56B4E9", "green":
 PHASE_COLORS = {"solid": (OKABE_ITO["blue"], "solid"), "fluid": (OKABE_ITO["green"], "fluid"),
                 "soft_fluid": (OKABE_ITO["orange"], "soft fluid"),
                 "undetermined": ("#BBBBBB", "undetermined"), "unknown": ("#FFFFFF", "not analysed")}
-#: Matplotlib settings of every figure: legible at 300 dpi in a paper column and on a slide.
-STYLE = {"font.size": 10, "axes.titlesize": 10, "axes.labelsize": 11, "legend.fontsize": 8.5,
-         "xtick.labelsize": 9, "ytick.labelsize": 9, "lines.linewidth": 1.6, "lines.markersize": 4.5,
-         "axes.linewidth": 0.8, "legend.frameon": False, "savefig.dpi": 300,
+#: Width of a single-panel figure (one paper column) and of a figure of several panels, inches.
+COLUMN, DOUBLE_COLUMN = 3.4, 7.0
+#: Matplotlib settings of every figure: 7-8.5 pt, legible in a printed column at 300 dpi.
+STYLE = {"font.size": 8, "axes.titlesize": 8, "axes.labelsize": 8.5, "legend.fontsize": 7,
+         "xtick.labelsize": 7.5, "ytick.labelsize": 7.5, "lines.linewidth": 1.2, "lines.markersize": 3.5,
+         "axes.linewidth": 0.7, "legend.frameon": False, "savefig.dpi": 300,
          "figure.constrained_layout.use": True}
+#: Font size of caption lines.
+CAPTION_SIZE = 6.5
+#: Model units (docs/model.md): lengths R0, time R0/(mu F); eta is a line tension (force
+#: F), v0 a speed (mu F).
 TIME_UNIT = r"$R_0/(\mu F)$"
+ETA_LABEL = r"membrane tension $\eta$ [$F$]"
+V0_LABEL = r"self-propulsion $v_0$ [$\mu F$]"
+ETA_SYMBOL, V0_SYMBOL = r"$\eta$ [$F$]", r"$v_0$ [$\mu F$]"
 
 
 def _styled(fn):
@@ -115,19 +129,20 @@ def _err(ds, var, keep, select):
     return _select(da, keep, select).values
 
 
-def _flag_words(da) -> dict[int, str]:
-    """Code -> word of a CF flag variable, from its attributes (else :data:`PHASE_FLAGS`)."""
+def _flag_words(da, default=None) -> dict[int, str]:
+    """Code -> word of a CF flag variable, from its attributes (else ``default``,
+    :data:`PHASE_FLAGS` if not given)."""
     vals, words = da.attrs.get("flag_values"), da.attrs.get("flag_meanings")
     if vals is None or not words:
-        return dict(PHASE_FLAGS)
+        return dict(PHASE_FLAGS if default is None else default)
     return {int(v): w for v, w in zip(np.atleast_1d(vals), str(words).split())}
 
 
-def _phase_words(ds, keep, select) -> np.ndarray:
-    """Phase word of every point of the plane; replicates that disagree are
-    ``undetermined``, points without a label ``unknown``."""
-    da = ds["phase"]
-    words = _flag_words(da)
+def _phase_words(ds, keep, select, var="phase", default=None) -> np.ndarray:
+    """Label word of every point of the plane (of ``var``, a CF flag variable);
+    replicates that disagree are ``undetermined``, points without a label ``unknown``."""
+    da = ds[var]
+    words = _flag_words(da, default)
     if "replicate" in da.dims and "replicate" not in keep:
         da = da.where(da >= 0)
         lo, hi = da.min("replicate", skipna=True), da.max("replicate", skipna=True)
@@ -241,11 +256,27 @@ def _value_colorbar(fig, axes, values, label):
     return cb
 
 
-def _panels(n, width=3.2, height=2.7, sharey=True):
-    """A grid of ``n`` panels (at most 3 per row) with shared axes; spare axes removed."""
+def _caption_chars(ax) -> int:
+    """Characters of a caption line (at :data:`CAPTION_SIZE`) that fit over ``ax``."""
+    width_pt = ax.get_position().width * ax.figure.get_figwidth() * 72.0
+    return max(int(width_pt / (0.55 * CAPTION_SIZE)), 30)
+
+
+def _axes(ax, size):
+    """``(figure, ax)``: the given Axes and its figure, or a new figure of ``size`` inches."""
+    if ax is not None:
+        return ax.figure, ax
+    return plt.subplots(figsize=size)
+
+
+def _panels(n, width=None, height=1.9, sharey=True):
+    """A grid of ``n`` panels (at most 3 per row) with shared axes; spare axes removed.
+    The figure is one column wide for one panel, two columns for more (``width``: of
+    each panel, inches, instead)."""
     ncols = min(n, 3)
     nrows = -(-n // ncols)
-    fig, axes = plt.subplots(nrows, ncols, figsize=(width * ncols + 0.9, height * nrows + 0.4),
+    total = width * ncols + 0.9 if width else (COLUMN if ncols == 1 else DOUBLE_COLUMN)
+    fig, axes = plt.subplots(nrows, ncols, figsize=(total, height * nrows + 0.5),
                              sharex=True, sharey=sharey, squeeze=False)
     flat = list(axes.ravel())
     for ax in flat[n:]:
@@ -258,11 +289,15 @@ def _grid_label(v) -> str:
     return f"{v:.3g}"
 
 
-def _grid_ticks(axis, values, most=6):
+def _grid_ticks(axis, values, most=None):
     """Ticks at the grid values of a log axis (decades alone rarely label a 0.01-0.1
     sweep), in three digits; past ``most`` values only every k-th one is labelled, so
-    that refined grids do not print labels on top of each other."""
+    that refined grids do not print labels on top of each other (default: 6 on a y
+    axis, one per half inch of a x axis)."""
     values = np.asarray(values, dtype=float)
+    if most is None:
+        width = axis.axes.get_position().width * axis.axes.figure.get_figwidth()
+        most = max(3, int(width / 0.5)) if axis.axis_name == "x" else 6
     step = int(np.ceil(values.size / most))
     axis.set_ticks(values)
     axis.set_ticklabels([_grid_label(v) if i % step == 0 else "" for i, v in enumerate(values)])
@@ -274,7 +309,7 @@ def _eta_axis(ax, eta):
     if _log_axis(eta):
         ax.set_xscale("log")
         _grid_ticks(ax.xaxis, eta)
-    ax.set_xlabel(r"membrane tension $\eta$")
+    ax.set_xlabel(ETA_LABEL)
 
 
 def _tidy_log(ax):
@@ -298,41 +333,158 @@ def _no_data(ax, text="no data"):
 
 # ------------------------------------------------------------------ sweep figures
 
+#: Short words for the reasons a label is undetermined (``phase_reason``, ``kthny_reason``):
+#: (pattern, words), the first pattern found in a clause wins.
+SHORT_REASONS = (
+    (r"not available|no data|not analysed|nothing ran", "no data"),
+    (r"too short", "too short"),
+    (r"replicates disagree", "replicates disagree"),
+    (r"replicate's .*not trustworthy", "replicate not trusted"),
+    (r"no cage broken|cages? not broken|not left their cages|left their cages", "cage not broken"),
+    (r"cages may be broken", "cage may be broken"),
+    (r"cages broken .* reads solid", "cages vs D_eff"),
+    (r"<q>.*too close", "<q> near 3.81"),
+    (r"rho_d.*too close", "rho_d near 1/2"),
+    (r"D_eff.*too close", "near threshold"),
+    (r"block length", "block-length dependent"),
+    (r"reads fluid", "D_eff fluid"),
+    (r"not diffusive|not settled|not trustworthy|still being explored", "not settled"),
+    (r"no error estimate", "no error"),
+    (r"^a longer run", None),  # advice, not a reason
+)
+
+
+def short_reason(text, words: int = 3) -> str:
+    """A label's reason in two or three words, for drawing next to the point.
+
+    Each ``;``-separated clause of ``text`` is matched against :data:`SHORT_REASONS`
+    (run too short -> "too short", D_eff too close to 1e-3 -> "near threshold", <q> too
+    close to 3.81 -> "<q> near 3.81", no cage broken -> "cage not broken", MSD not
+    diffusive -> "not settled", no estimate -> "no data"); an unknown clause gives its
+    first ``words`` words.  At most two clauses are kept, joined by ", ".
+
+    Parameters
+    ----------
+    text : str
+        A reason as the analysis writes it (``phase_reason`` and the like).
+    words : int
+        Words kept of a clause that no pattern matches.
+
+    Returns
+    -------
+    str
+        "" for an empty reason.
+    """
+    if isinstance(text, bytes):
+        text = text.decode("utf-8", "replace")
+    out = []
+    for clause in str(text or "").split(";"):
+        clause = clause.strip()
+        if not clause:
+            continue
+        hit = next(((pat, w) for pat, w in SHORT_REASONS if re.search(pat, clause, re.IGNORECASE)), None)
+        if hit is None:
+            short = " ".join(re.sub(r"\(.*?\)", "", clause).split()[:words]).rstrip(":,")
+        elif hit[1] is None:
+            continue
+        else:
+            short = hit[1]
+        if short and short not in out:
+            out.append(short)
+    return ", ".join(out[:2])
+
+
+def _point_reasons(ds, keep, select, label="phase") -> np.ndarray:
+    """The reason (``<label>_reason``) of every point of the plane; over replicates, the
+    first replicate's whose label is not accepted (undetermined or unknown), or
+    "replicates disagree" where accepted labels differ."""
+    name = f"{label}_reason"
+    codes = ds[label]
+    shape = tuple(ds.sizes[d] for d in keep)
+    if name not in ds:
+        return np.full(shape, "", dtype=object)
+    words = _flag_words(codes)
+    bad = [c for c, w in words.items() if w in ("undetermined", "unknown")]
+    if "replicate" not in ds[name].dims or "replicate" in keep:
+        return _select(ds[name], keep, select).values.astype(object)
+    text = _select(ds[name], tuple(keep) + ("replicate",), select).values
+    code = _select(codes, tuple(keep) + ("replicate",), select).values
+    out = np.full(shape, "", dtype=object)
+    for idx in np.ndindex(*shape):
+        c, t = code[idx], text[idx]
+        accepted = [int(v) for v in c if int(v) not in bad]
+        not_ok = [k for k, v in enumerate(c) if int(v) in bad]
+        if not_ok:
+            out[idx] = t[not_ok[0]]
+        elif len(set(accepted)) > 1:
+            out[idx] = "replicates disagree"
+        else:
+            out[idx] = t[0]
+    return out
+
+
+def _cell_fontsize(ax, n_cols) -> tuple[float, int]:
+    """Font size and characters per line of text written inside one of ``n_cols`` cells."""
+    width_pt = ax.get_position().width * ax.figure.get_figwidth() * 72.0 / max(n_cols, 1)
+    size = float(np.clip(width_pt / 9.0, 4.0, 6.0))
+    return size, max(int(width_pt / (0.55 * size)), 6)
+
+
 @_styled
-def phase_diagram(ds, *, select=None):
+def phase_diagram(ds, *, select=None, reasons: bool = True, ax=None):
     """Phase regions in the (eta, v0) plane, with the <q> = 3.81 and rho_d = 1/2 contours.
 
     Each grid point is a cell coloured by its phase label (Okabe--Ito: solid blue,
     fluid green, soft fluid orange); ``undetermined`` points (or replicates that
-    disagree) are grey and hatched; points without a label are white.  Axes are
+    disagree) are grey and hatched, with the reason in short words
+    (:func:`short_reason`) when ``reasons``; points without a label are white.  Axes are
     logarithmic where the grid is.  Replicates are reduced (labels must agree,
     observables averaged); other dimensions (N, ...) are taken at ``select`` or their
     last value.  The caption line names N, the run length and the quadrature.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A phase-diagram dataset (:func:`fcsweep.analysis.aggregate.build_dataset`).
+    select : dict, optional
+        Values of the other dimensions (N, ...) to draw.
+    reasons : bool
+        Write each undetermined point's reason in its cell.
+    ax : matplotlib.axes.Axes, optional
+        Draw into this Axes (else a new figure one column wide).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
     """
     eta, v0 = ds["eta"].values.astype(float), ds["v0"].values.astype(float)
     words = _phase_words(ds, ("v0", "eta"), select)
     log_x, log_y = _log_axis(eta), _log_axis(v0)
     ex, ey = _edges(eta, log_x), _edges(v0, log_y)
-    fig, ax = plt.subplots(figsize=(6.4, 4.3))
+    own = ax is None
+    fig, ax = _axes(ax, (COLUMN, 3.3))
     order = ["solid", "fluid", "soft_fluid", "undetermined", "unknown"]
     idx = np.vectorize(lambda w: order.index(w) if w in order else order.index("unknown"))(words)
     cmap = ListedColormap([PHASE_COLORS[w][0] for w in order])
     ax.pcolormesh(ex, ey, idx, cmap=cmap, norm=BoundaryNorm(np.arange(len(order) + 1) - 0.5, len(order)),
                   edgecolors="w", linewidth=0.6)
-    for i, j in zip(*np.nonzero(words == "undetermined")):
+    undetermined = list(zip(*np.nonzero(words == "undetermined")))
+    for i, j in undetermined:
         ax.add_patch(Rectangle((ex[j], ey[i]), ex[j + 1] - ex[j], ey[i + 1] - ey[i], fill=False,
-                               hatch="///", edgecolor="0.35", linewidth=0))
+                               hatch="///", edgecolor="0.55", linewidth=0))
     handles = [Patch(facecolor=PHASE_COLORS[w][0], edgecolor="0.5", label=PHASE_COLORS[w][1],
                      hatch="///" if w == "undetermined" else None)
                for w in order if np.any(words == w)]
     if len(eta) >= 2 and len(v0) >= 2:
         for var, level, style, label in (("q_mean", Q_STAR, "-", r"$\langle q\rangle = 3.81$"),
                                          ("rho_d", RHO_D_PERCOLATION, "--", r"$\rho_d = 1/2$")):
+            if var not in ds:
+                continue
             field = _plane(ds, var, ("v0", "eta"), select).values
             f = np.ma.masked_invalid(field)
             if f.count() >= 4 and np.nanmin(field) < level < np.nanmax(field):
-                ax.contour(eta, v0, f, levels=[level], colors="k", linestyles=style, linewidths=2.0)
-                handles.append(plt.Line2D([], [], color="k", ls=style, lw=2.0, label=label))
+                ax.contour(eta, v0, f, levels=[level], colors="k", linestyles=style, linewidths=1.5)
+                handles.append(plt.Line2D([], [], color="k", ls=style, lw=1.5, label=label))
     if log_x:
         ax.set_xscale("log")
     if log_y:
@@ -342,50 +494,118 @@ def phase_diagram(ds, *, select=None):
             _grid_ticks(axis, vals)
     ax.set_xlim(ex[0], ex[-1])
     ax.set_ylim(ey[0], ey[-1])
-    ax.set_xlabel(r"membrane tension $\eta$")
-    ax.set_ylabel(r"self-propulsion $v_0$")
-    ax.set_title(caption(ds, select, 95), fontsize=8.5, loc="left")  # 95 characters span the axes and legend
-    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
+    ax.set_xlabel(ETA_LABEL)
+    ax.set_ylabel(V0_LABEL)
+    if reasons and undetermined:
+        why = _point_reasons(ds, ("v0", "eta"), select)
+        size, chars = _cell_fontsize(ax, len(eta))
+        for i, j in undetermined:
+            text = short_reason(why[i, j])
+            if text:
+                ax.text(np.sqrt(ex[j] * ex[j + 1]) if log_x else 0.5 * (ex[j] + ex[j + 1]),
+                        np.sqrt(ey[i] * ey[i + 1]) if log_y else 0.5 * (ey[i] + ey[i + 1]),
+                        textwrap.fill(text, chars, break_long_words=False), ha="center", va="center",
+                        fontsize=size, color="k", gid="reason", linespacing=1.0,
+                        bbox={"facecolor": "w", "edgecolor": "none", "alpha": 0.75, "pad": 0.8})
+    if own:
+        ax.set_title(caption(ds, select, _caption_chars(ax)), fontsize=CAPTION_SIZE, loc="left")
+    ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.2), borderaxespad=0,
+              ncols=3, columnspacing=1.0, handlelength=1.6)
     return fig
 
 
+def _accepted(ds, keep, select) -> np.ndarray | None:
+    """True where the phase label was decided (neither undetermined nor unknown); None
+    for datasets without the ``phase`` variable."""
+    if "phase" not in ds:
+        return None
+    words = _phase_words(ds, keep, select)
+    return (words != "undetermined") & (words != "unknown")
+
+
 @_styled
-def d_eff_curves(ds, *, select=None):
+def d_eff_curves(ds, *, select=None, ax=None):
     """D_eff against eta, one curve per v0, with 1-sigma error bars where the dataset has
     ``D_eff_err`` and the solid threshold 1e-3; a log axis, symlog where some D_eff <= 0
-    (fit noise in a solid)."""
+    (fit noise in a solid).
+
+    Values the label rule did not accept (phase undetermined or unknown at that point)
+    are hollow markers, decided ones filled; a legend says so when both occur.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A phase-diagram dataset.
+    select : dict, optional
+        Values of the other dimensions (N, ...) to draw.
+    ax : matplotlib.axes.Axes, optional
+        Draw into this Axes (else a new figure one column wide).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
     D = _plane(ds, "D_eff", ("v0", "eta"), select)
     err = _err(ds, "D_eff", ("v0", "eta"), select)
+    accepted = _accepted(ds, ("v0", "eta"), select)
     eta, v0 = D["eta"].values.astype(float), D["v0"].values
-    fig, ax = plt.subplots(figsize=(5.6, 3.8))
+    own = ax is None
+    fig, ax = _axes(ax, (COLUMN, 2.7))
+    hollow_any = filled_any = False
     for k, col in enumerate(_colors(len(v0))):
         y = D.values[k]
         ok = np.isfinite(y)
-        if ok.any():
-            ax.errorbar(eta[ok], y[ok], yerr=None if err is None else err[k][ok], fmt="o-", color=col,
-                        capsize=2.5)
-    ax.axhline(D_EFF_SOLID, color="k", ls=":", lw=1.2)
-    ax.text(eta.min() if eta.size else 0, D_EFF_SOLID * 1.3, r" solid below $10^{-3}$", fontsize=8, va="bottom")
+        if not ok.any():
+            continue
+        ax.errorbar(eta[ok], y[ok], yerr=None if err is None else err[k][ok], fmt="-", color=col,
+                    capsize=2.0, lw=1.0)
+        acc = np.ones_like(ok) if accepted is None else accepted[k]
+        if (ok & acc).any():
+            ax.plot(eta[ok & acc], y[ok & acc], "o", color=col, gid="accepted")
+            filled_any = True
+        if (ok & ~acc).any():
+            ax.plot(eta[ok & ~acc], y[ok & ~acc], "o", mfc="w", mec=col, mew=1.0, gid="not_accepted")
+            hollow_any = True
+    ax.axhline(D_EFF_SOLID, color="k", ls=":", lw=1.0)
+    ax.text(0.99, D_EFF_SOLID, r"solid below $10^{-3}$", transform=ax.get_yaxis_transform(), fontsize=6.5,
+            ha="right", va="top", zorder=1.5)
     vals = D.values[np.isfinite(D.values)]
     if vals.size and (vals <= 0).any():  # fit noise makes a solid's D_eff <= 0: symlog keeps it
         ax.set_yscale("symlog", linthresh=1e-4, linscale=0.5)
     else:
         ax.set_yscale("log")
+        lo, hi = ax.get_ylim()
+        ax.set_ylim(min(lo, D_EFF_SOLID / 4), max(hi, 2 * D_EFF_SOLID))  # room for the threshold's words
         _tidy_log(ax)
     _eta_axis(ax, eta)
     ax.set_ylabel(r"$D_{\rm eff} = D_s / D_0$")
-    ax.set_title(caption(ds, select, 70), fontsize=8.5, loc="left")
-    _value_colorbar(fig, ax, v0, r"$v_0$")
+    if hollow_any:
+        marks = [Line2D([], [], marker="o", ls="none", color="0.3", mfc="w", label="undetermined label")]
+        if filled_any:
+            marks.insert(0, Line2D([], [], marker="o", ls="none", color="0.3", label="label decided"))
+        ax.legend(handles=marks, loc="best", handletextpad=0.2)
+    if own:
+        ax.set_title(caption(ds, select, _caption_chars(ax)), fontsize=CAPTION_SIZE, loc="left")
+    _value_colorbar(fig, ax, v0, V0_SYMBOL)
     return fig
 
 
-def _per_v0(ds, var, coord, select, draw, ylabel, xlabel, *, sharey=True):
+def _per_v0(ds, var, coord, select, draw, ylabel, xlabel, *, sharey=True, axes=None):
     """One panel per v0 of curves ``var(coord)`` coloured by eta; ``draw(ax, x, y, color)``
-    draws one curve and returns True if it drew anything."""
+    draws one curve and returns True if it drew anything.  ``axes``: one Axes per v0 to
+    draw into (else a new figure).  The eta colour bar is added only where a curve is."""
     v0s = ds["v0"].values
     etas = ds["eta"].values
-    fig, axes = _panels(len(v0s), sharey=sharey)
+    own = axes is None
+    if own:
+        fig, axes = _panels(len(v0s), sharey=sharey)
+    else:
+        axes = list(axes)
+        if len(axes) != len(v0s):
+            raise ValueError(f"{len(v0s)} Axes needed (one per v0), got {len(axes)}")
+        fig = axes[0].figure
     cols = _colors(len(etas))
+    drew_any = False
     for ax, v in zip(axes, v0s):
         sel = {**dict(select or {}), "v0": v}
         c = _plane(ds, var, ("eta", coord), sel)
@@ -394,57 +614,69 @@ def _per_v0(ds, var, coord, select, draw, ylabel, xlabel, *, sharey=True):
             drew |= bool(draw(ax, c[coord].values, c.sel(eta=e).values, cols[k]))
         if not drew:
             _no_data(ax, "no defect clusters" if var == "cluster_size_distribution" else "no data")
-        ax.set_title(rf"$v_0$ = {float(v):g}")
+        drew_any |= drew
+        ax.set_title(rf"$v_0$ = {float(v):g} $\mu F$")
     for ax in axes:
-        if ax.get_subplotspec().is_last_row() or len(axes) <= 3:
+        spec = ax.get_subplotspec()
+        if spec is None or spec.is_last_row() or len(axes) <= 3:
             ax.set_xlabel(xlabel)
-        if ax.get_subplotspec().is_first_col():
+        if spec is None or spec.is_first_col():
             ax.set_ylabel(ylabel)
-    _value_colorbar(fig, axes, etas, r"$\eta$")
-    fig.suptitle(caption(ds, select), fontsize=8.5)
+    if drew_any:
+        _value_colorbar(fig, axes, etas, ETA_SYMBOL)
+    else:  # empty panels: no scale to read
+        for ax in axes:
+            ax.tick_params(which="both", left=False, bottom=False, labelleft=False, labelbottom=False)
+    if own:
+        fig.suptitle(caption(ds, select), fontsize=CAPTION_SIZE)
     return fig, axes
 
 
 @_styled
-def q_distributions(ds, *, select=None):
+def q_distributions(ds, *, select=None, axes=None):
     """Shape-index distributions P(q), one panel per v0, one curve per eta, with q* = 3.81
-    and the circle's 2 sqrt(pi) marked."""
+    and the circle's 2 sqrt(pi) marked.  ``axes``: one Axes per v0 to draw into."""
     def draw(ax, x, y, col):
         ok = np.isfinite(y)
         if ok.any():
             ax.plot(x[ok], y[ok], color=col)
         return ok.any()
 
-    fig, axes = _per_v0(ds, "q_hist", "q_bin", select, draw, "P(q)", "shape index q")
+    fig, axes = _per_v0(ds, "q_hist", "q_bin", select, draw, "P(q)", "shape index q", axes=axes)
     for ax in axes:
-        ax.axvline(Q_STAR, color="k", ls="--", lw=1)
-        ax.axvline(2 * np.sqrt(np.pi), color="0.6", ls=":", lw=1)
-    axes[0].text(Q_STAR, 0.97, " q* = 3.81", transform=axes[0].get_xaxis_transform(), va="top", fontsize=8)
+        ax.axvline(Q_STAR, color="k", ls="--", lw=0.9)
+        ax.axvline(2 * np.sqrt(np.pi), color="0.6", ls=":", lw=0.9)
+    axes[0].text(Q_STAR, 0.97, " q* = 3.81", transform=axes[0].get_xaxis_transform(), va="top", fontsize=6.5)
     return fig
 
 
 @_styled
-def largest_cluster(ds, *, v0=None, select=None):
+def largest_cluster(ds, *, v0=None, select=None, ax=None):
     """Largest defect-cluster fraction against eta at one v0 (default: the largest), one
-    curve per N, with error bars where ``largest_cluster_fraction_err`` exists."""
+    curve per N, with error bars where ``largest_cluster_fraction_err`` exists.
+    ``ax``: draw into this Axes (else a new figure one column wide)."""
     sel = dict(select or {})
     sel["v0"] = ds["v0"].values[-1] if v0 is None else v0
     p = _plane(ds, "largest_cluster_fraction", ("N", "eta"), sel)
     err = _err(ds, "largest_cluster_fraction", ("N", "eta"), sel)
-    fig, ax = plt.subplots(figsize=(5.0, 3.6))
+    own = ax is None
+    fig, ax = _axes(ax, (COLUMN, 2.7))
     palette = [OKABE_ITO[c] for c in ("blue", "vermillion", "green", "orange", "purple", "sky", "black")]
     eta = p["eta"].values.astype(float)
     for k, N in enumerate(p["N"].values):
         y = p.values[k]
         ok = np.isfinite(y)
         ax.errorbar(eta[ok], y[ok], yerr=None if err is None else err[k][ok], fmt="o-",
-                    color=palette[k % len(palette)], capsize=2.5, label=f"N = {int(N)}")
+                    color=palette[k % len(palette)], capsize=2.0, label=f"N = {int(N)}")
     _eta_axis(ax, eta)
     ax.set_ylabel(r"$P_{\max} = s_{\max}/N$")
     ax.set_ylim(-0.02, 1.02)
-    cap = caption(ds, {k: v for k, v in sel.items() if k != "N"})
-    ax.set_title(textwrap.fill(rf"$v_0$ = {float(sel['v0']):g}, " + cap.split(", ", 1)[-1], 60,
-                               break_long_words=False), fontsize=8.5, loc="left")
+    head = rf"$v_0$ = {float(sel['v0']):g} $\mu F$"
+    if own:
+        cap = caption(ds, {k: v for k, v in sel.items() if k != "N"})
+        head += ", " + cap.split(", ", 1)[-1]
+    ax.set_title(textwrap.fill(head, _caption_chars(ax), break_long_words=False), fontsize=CAPTION_SIZE,
+                 loc="left")
     ax.legend(loc="best")
     return fig
 
@@ -467,34 +699,83 @@ def log_binned(sizes, counts, per_decade=8):
     return centre[ok], dens[ok]
 
 
+def _guide(ax, x, slope, label, style="k--", through=None):
+    """A power-law guide ``~ x**slope`` over ``x`` that leaves the axis range to the data.
+
+    ``through`` (x0, y0): a point on the guide; by default the guide runs at 0.6 times
+    the lowest one above every positive data point (the data's upper envelope), moved
+    up or down as far as needed to stay inside the data's y range, so that it lies next
+    to the curves it is compared with.  It spans the data's x range at most.  Nothing
+    is drawn on an Axes without data.
+    """
+    data = [ln for ln in ax.get_lines() if len(np.atleast_1d(ln.get_xdata())) > 0]
+    x = np.asarray(x, dtype=float)
+    x = x[np.isfinite(x) & (x > 0)]
+    if not data or x.size < 2:
+        return None
+    spans = [np.asarray(ln.get_xdata(), dtype=float) for ln in data]
+    lo = min(np.nanmin(v[v > 0]) for v in spans if np.any(v > 0)) if any(np.any(v > 0) for v in spans) else x.min()
+    hi = max(np.nanmax(v) for v in spans)
+    x0 = np.array([max(x.min(), lo), min(x.max(), hi)])
+    if not x0[1] > x0[0]:
+        return None
+    if through is None:
+        top = []
+        for ln in data:
+            xd, yd = (np.asarray(v, dtype=float) for v in ln.get_data())
+            ok = np.isfinite(xd) & np.isfinite(yd) & (xd > 0) & (yd > 0)
+            if ok.any():
+                top.append(np.max(yd[ok] / (xd[ok] / x0[0]) ** slope))
+        y0 = 0.6 * max(top) if top else 1.0
+        shape = (x0 / x0[0]) ** slope  # the guide over y0 at its two ends
+        lo, hi = sorted(ax.get_ylim())
+        if lo > 0 and y0 * shape.min() < lo:
+            y0 = 1.05 * lo / shape.min()
+        if y0 * shape.max() > hi:
+            y0 = 0.95 * hi / shape.max()
+        through = (x0[0], y0)
+    xlim, ylim = ax.get_xlim(), ax.get_ylim()
+    (line,) = ax.plot(x0, through[1] * (x0 / through[0]) ** slope, style, lw=1.0, label=label, gid="guide")
+    ax.set_xlim(xlim)
+    ax.set_ylim(ylim)
+    return line
+
+
 @_styled
-def cluster_sizes(ds, *, select=None):
+def cluster_sizes(ds, *, select=None, axes=None):
     """Defect cluster-size densities n(s), one panel per v0, one curve per eta, with the
-    s^(-187/91) percolation guide; a panel without defects says so."""
+    s^(-187/91) percolation guide; a panel without defects says so (and without any
+    defect cluster, no colour bar nor guide is drawn).  ``axes``: one Axes per v0."""
     smax = max(float(np.nanmax(ds["cluster_size"].values)), 10.0)
 
     def draw(ax, x, y, col):
         s, d = log_binned(x, y)
         if s.size:
-            ax.loglog(s, d, "o-", ms=3, color=col)
+            ax.loglog(s, d, "o-", ms=2.5, color=col)
         return s.size > 0
 
-    fig, axes = _per_v0(ds, "cluster_size_distribution", "cluster_size", select, draw, "n(s)", "cluster size s")
-    s = np.logspace(0, np.log10(smax), 20)
+    fig, axes = _per_v0(ds, "cluster_size_distribution", "cluster_size", select, draw, "n(s)",
+                        "cluster size s", axes=axes)
+    s = np.array([1.0, smax])
+    drawn = False
     for ax in axes:
-        ax.loglog(s, 0.5 * s ** (-TAU_PERC), "k--", lw=1, label=r"$s^{-187/91}$")
-    axes[0].legend(loc="lower left")
+        if ax.get_lines():
+            drawn |= _guide(ax, s, -TAU_PERC, r"$s^{-187/91}$") is not None
+    if drawn:
+        next(ax for ax in axes if ax.get_lines()).legend(loc="lower left")
     return fig
 
 
 @_styled
-def correlations(ds, *, across="eta", at=None, select=None):
+def correlations(ds, *, across="eta", at=None, select=None, axes=None):
     """G_r(dx, 0) - 1 (symlog: it oscillates about 0) and G6(r) (log-log) with the
-    KTHNY -1/3 and -1/4 guides.
+    KTHNY -1/3 and -1/4 guides (drawn through the top of the data; the axis ranges are
+    the data's).
 
     One curve per value of ``across`` ("eta" or "v0") with the other parameter fixed at
     ``at`` (default: its largest value): the paper's Fig. 4 shows both cuts, across v0
-    at eta = 0.1 and across eta at v0 = 0.06.
+    at eta = 0.1 and across eta at v0 = 0.06.  ``axes``: two Axes to draw into (else a
+    new figure two columns wide).
     """
     fixed = "v0" if across == "eta" else "eta"
     sel = dict(select or {})
@@ -502,8 +783,13 @@ def correlations(ds, *, across="eta", at=None, select=None):
     gr = _plane(ds, "Gr", (across, "dx"), sel)
     g6 = _plane(ds, "G6", (across, "r"), sel)
     values = gr[across].values
-    label = r"$\eta$" if across == "eta" else r"$v_0$"
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(8.6, 3.6))
+    label = ETA_SYMBOL if across == "eta" else V0_SYMBOL
+    own = axes is None
+    if own:
+        fig, (a1, a2) = plt.subplots(1, 2, figsize=(DOUBLE_COLUMN, 2.7))
+    else:
+        a1, a2 = axes
+        fig = a1.figure
     for e, col in zip(values, _colors(len(values))):
         x, y = gr["dx"].values, gr.sel({across: e}).values - 1.0
         ok = np.isfinite(y) & (x > 0)
@@ -513,36 +799,42 @@ def correlations(ds, *, across="eta", at=None, select=None):
         ok6 = np.isfinite(y6) & (y6 > 0) & (r > 0)
         if ok6.any():
             a2.loglog(r[ok6], y6[ok6], "-", color=col)
+    a1.set_xscale("log")
+    a1.set_yscale("symlog", linthresh=1e-2, linscale=0.6)
+    a2.set_xscale("log")
+    a2.set_yscale("log")
     for ax, slope, lab, xs in ((a1, -1 / 3, r"$\propto\Delta x^{-1/3}$", gr["dx"].values),
                                (a2, -1 / 4, r"$\propto r^{-1/4}$", g6["r"].values)):
         xs = xs[np.isfinite(xs) & (xs > 0)]
-        if xs.size >= 2:
-            x0 = np.array([max(xs.min(), 1.0), xs.max()])
-            ax.plot(x0, (x0 / x0[0]) ** slope, "k--", lw=1.2, label=lab)
-            ax.legend(loc="lower left")
-    a1.set_xscale("log")
-    a1.set_yscale("symlog", linthresh=1e-2, linscale=0.6)
-    a1.axhline(0, color="0.6", lw=0.8)
+        if _guide(ax, xs[xs >= min(1.0, xs.max())] if xs.size else xs, slope, lab) is not None:
+            ax.legend(loc="best")
+    a1.axhline(0, color="0.6", lw=0.7)
     a1.set_xlabel(r"$\Delta x / R_0$")
     a1.set_ylabel(r"$G_r(\Delta x, 0) - 1$")
     a2.set_xlabel(r"$r / R_0$")
     a2.set_ylabel(r"$G_6(r)$")
-    fixed_label = r"$v_0$" if fixed == "v0" else r"$\eta$"
+    fixed_label = rf"$v_0$ = {float(sel[fixed]):g} $\mu F$" if fixed == "v0" else rf"$\eta$ = {float(sel[fixed]):g} $F$"
     _tidy_log(a1)
     _tidy_log(a2)
-    _value_colorbar(fig, [a1, a2], values, label)
-    fig.suptitle(f"{fixed_label} = {float(sel[fixed]):g};  " + caption(ds, select), fontsize=8.5)
+    if a1.get_lines() or a2.get_lines():
+        _value_colorbar(fig, [a1, a2], values, label)
+    if own:
+        fig.suptitle(f"{fixed_label};  " + caption(ds, select), fontsize=CAPTION_SIZE)
+    else:
+        a1.set_title(fixed_label, loc="left")
     return fig
 
 
 @_styled
-def msd_curves(ds, *, v0=None, select=None):
+def msd_curves(ds, *, v0=None, select=None, ax=None):
     """MSD against lag time, one curve per eta at one v0 (default: the largest), log-log,
-    with the ballistic (slope 2) and diffusive (slope 1) guides."""
+    with the ballistic (slope 2) and diffusive (slope 1) guides.  ``ax``: draw into this
+    Axes (else a new figure one column wide)."""
     sel = dict(select or {})
     sel["v0"] = ds["v0"].values[-1] if v0 is None else v0
     m = _plane(ds, "msd", ("eta", "lag_time"), sel)
-    fig, ax = plt.subplots(figsize=(5.4, 3.8))
+    own = ax is None
+    fig, ax = _axes(ax, (COLUMN, 2.7))
     t = m["lag_time"].values
     etas = m["eta"].values
     first = []
@@ -562,9 +854,102 @@ def msd_curves(ds, *, v0=None, select=None):
     _tidy_log(ax)
     ax.set_xlabel(f"lag time t [{TIME_UNIT}]")
     ax.set_ylabel(r"MSD / $R_0^2$")
-    ax.set_title(textwrap.fill(rf"$v_0$ = {float(sel['v0']):g}, " + caption(ds, select), 70, break_long_words=False),
-                 fontsize=8.5, loc="left")
-    _value_colorbar(fig, ax, etas, r"$\eta$")
+    head = rf"$v_0$ = {float(sel['v0']):g} $\mu F$"
+    if own:
+        head += ", " + caption(ds, select)
+    ax.set_title(textwrap.fill(head, _caption_chars(ax), break_long_words=False), fontsize=CAPTION_SIZE,
+                 loc="left")
+    if first:
+        _value_colorbar(fig, ax, etas, ETA_SYMBOL)
+    return fig
+
+
+#: Codes of the ``kthny`` label, used where the dataset's variable lacks CF flag attributes.
+KTHNY_CODES = {-1: "unknown", 0: "solid", 1: "hexatic", 2: "liquid", 3: "undetermined"}
+#: Marker, colour and legend label of each summary label (:func:`summary_diagram`).
+SUMMARY_STYLE = {"solid": ("h", OKABE_ITO["blue"], "solid"),
+                 "hexatic": ("D", OKABE_ITO["sky"], "hexatic"),
+                 "liquid": ("o", OKABE_ITO["green"], "liquid"),
+                 "soft_fluid": ("s", OKABE_ITO["orange"], "soft fluid"),
+                 "undetermined": ("o", "#DDDDDD", "undetermined"),
+                 "unknown": ("x", "0.6", "not analysed")}
+
+
+def summary_labels(ds, select=None) -> np.ndarray:
+    """The summary label of every point of the (v0, eta) plane: the KTHNY label (solid,
+    hexatic, liquid) where it is decided, with a liquid whose phase is soft fluid called
+    ``soft_fluid``; the phase label (solid, fluid -> liquid, soft fluid) where the KTHNY
+    label is unknown; ``undetermined`` or ``unknown`` otherwise.  Needs ``kthny``."""
+    kthny = _phase_words(ds, ("v0", "eta"), select, var="kthny", default=KTHNY_CODES)
+    phase = _phase_words(ds, ("v0", "eta"), select) if "phase" in ds else np.full(kthny.shape, "unknown", object)
+    out = np.full(kthny.shape, "unknown", dtype=object)
+    for word in ("solid", "hexatic", "liquid", "undetermined"):
+        out[kthny == word] = word
+    out[(kthny == "liquid") & (phase == "soft_fluid")] = "soft_fluid"
+    from_phase = kthny == "unknown"
+    out[from_phase & (phase == "solid")] = "solid"
+    out[from_phase & (phase == "fluid")] = "liquid"
+    out[from_phase & (phase == "soft_fluid")] = "soft_fluid"
+    out[from_phase & (phase == "undetermined")] = "undetermined"
+    return out
+
+
+@_styled
+def summary_diagram(ds, *, select=None, ax=None):
+    """Summary phase diagram in the style of the paper's Fig. 4e: one symbol per grid
+    point of the (eta, v0) plane naming its KTHNY label (solid hexagons, hexatic
+    diamonds, liquid circles, soft-fluid squares; undetermined points hatched grey,
+    :func:`summary_labels`).  Needs the ``kthny`` variable.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A phase-diagram dataset with ``kthny``.
+    select : dict, optional
+        Values of the other dimensions (N, ...) to draw.
+    ax : matplotlib.axes.Axes, optional
+        Draw into this Axes (else a new figure one column wide).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    if "kthny" not in ds:
+        raise ValueError("the dataset has no kthny label: aggregate it again with this version")
+    eta, v0 = ds["eta"].values.astype(float), ds["v0"].values.astype(float)
+    labels = summary_labels(ds, select)
+    log_x, log_y = _log_axis(eta), _log_axis(v0)
+    ex, ey = _edges(eta, log_x), _edges(v0, log_y)
+    own = ax is None
+    fig, ax = _axes(ax, (COLUMN, 3.1))
+    E, V = np.meshgrid(eta, v0)
+    size = float(np.clip(1400.0 / max(len(eta), len(v0)) ** 2, 12.0, 90.0))
+    handles = []
+    for word, (marker, color, text) in SUMMARY_STYLE.items():
+        here = labels == word
+        if not here.any():
+            continue
+        hatch = "/////" if word == "undetermined" else None
+        edge = "0.25" if word not in ("unknown",) else None
+        area = size * {"h": 1.3, "D": 0.7, "s": 0.85}.get(marker, 1.0)  # equal visual weight
+        ax.scatter(E[here], V[here], s=area, marker=marker, c=color, edgecolors=edge, linewidths=0.6,
+                   hatch=hatch, label=text, gid=word, zorder=3)
+        handles.append(word)
+    if log_x:
+        ax.set_xscale("log")
+    if log_y:
+        ax.set_yscale("log")
+    for axis, log, vals in ((ax.xaxis, log_x, eta), (ax.yaxis, log_y, v0)):
+        if log:
+            _grid_ticks(axis, vals)
+    ax.set_xlim(ex[0], ex[-1])
+    ax.set_ylim(ey[0], ey[-1])
+    ax.set_xlabel(ETA_LABEL)
+    ax.set_ylabel(V0_LABEL)
+    if own:
+        ax.set_title(caption(ds, select, _caption_chars(ax)), fontsize=CAPTION_SIZE, loc="left")
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.2), borderaxespad=0, ncols=3, columnspacing=1.0,
+              handletextpad=0.2, markerscale=min(1.0, 40.0 / size) ** 0.5)
     return fig
 
 
@@ -608,42 +993,88 @@ def cell_polygons(pos, theta, a, b, box, R0=1.0, points=48):
 Q_NORM = Normalize(vmin=2 * np.sqrt(np.pi), vmax=4.3)
 
 
+#: Width of a movie frame (a slide-size figure), inches, and its fonts (larger: a
+#: slide is seen from further away than a printed column).
+SLIDE = 6.4
+SLIDE_STYLE = {**STYLE, "font.size": 11, "axes.titlesize": 11, "axes.labelsize": 12, "legend.fontsize": 10,
+               "xtick.labelsize": 10.5, "ytick.labelsize": 10.5}
+#: Movie frames are a whole number of these pixel blocks in each direction (the H.264
+#: macro block: other sizes make imageio-ffmpeg rescale and warn).
+MACRO_BLOCK = 16
+
+
 class FrameArtist:
     """A figure of one frame that can be redrawn with the next frame (for movies).
 
     Cells are filled by their shape index q (viridis, from the circle's 2 sqrt(pi) to
-    4.3), defect cells (Voronoi neighbours != 6) outlined in vermillion with a dot at the
-    centroid.
+    4.3) and outlined in white, so that touching cells of equal q stay apart; defect
+    cells (Voronoi neighbours != 6) are outlined in vermillion with a dot at the centroid.
+
+    Parameters
+    ----------
+    box : array_like (2,)
+        Box lengths in R0.
+    width : float
+        Figure width, inches (default one paper column; :data:`SLIDE` for movies).
+    ax : matplotlib.axes.Axes, optional
+        Draw into this Axes instead of a new figure.
+    dpi : int, optional
+        Make an off-screen figure (Agg, not registered with pyplot) of exactly this
+        resolution whose pixel sizes are multiples of :data:`MACRO_BLOCK` (movie frames).
+    style : dict, optional
+        Matplotlib settings (default :data:`STYLE`; :data:`SLIDE_STYLE` for movies).
     """
 
-    def __init__(self, box, *, width=6.0):
+    def __init__(self, box, *, width=COLUMN, ax=None, dpi=None, style=None):
         self.box = np.asarray(box, dtype=float)
-        with plt.rc_context(STYLE):
-            self.fig, self.ax = plt.subplots(figsize=(width + 1.1, width * self.box[1] / self.box[0] + 0.5))
+        style = STYLE if style is None else style
+        self.title_size = 0.85 * float(style.get("axes.titlesize", 8))
+        with plt.rc_context(style):
+            size = (width, (width - 1.0) * self.box[1] / self.box[0] + 0.8)
+            if ax is not None:
+                self.fig, self.ax = ax.figure, ax
+            elif dpi is not None:
+                from matplotlib.backends.backend_agg import FigureCanvasAgg
+                from matplotlib.figure import Figure
+
+                px = [MACRO_BLOCK * int(np.ceil(v * dpi / MACRO_BLOCK)) for v in size]
+                self.fig = Figure(figsize=(px[0] / dpi, px[1] / dpi), dpi=dpi, layout="constrained")
+                FigureCanvasAgg(self.fig)
+                self.ax = self.fig.add_subplot()
+            else:
+                self.fig, self.ax = plt.subplots(figsize=size)
             self.coll = PolyCollection([], cmap="viridis", norm=Q_NORM)
             self.ax.add_collection(self.coll)
-            (self.dots,) = self.ax.plot([], [], "o", color=OKABE_ITO["vermillion"], ms=2.5)
-            cb = self.fig.colorbar(self.coll, ax=self.ax, shrink=0.85, pad=0.02)
+            (self.dots,) = self.ax.plot([], [], "o", color=OKABE_ITO["vermillion"], ms=2.0)
+            cb = self.fig.colorbar(self.coll, ax=self.ax, shrink=0.85, pad=0.02, aspect=30)
             cb.set_label("shape index q")
-            cb.ax.axhline(Q_STAR, color="w", lw=1.5)
+            cb.ax.axhline(Q_STAR, color="w", lw=1.2)
             self.ax.set_xlim(0, self.box[0])
             self.ax.set_ylim(0, self.box[1])
             self.ax.set_aspect("equal")
             self.ax.set_xlabel(r"$x / R_0$")
             self.ax.set_ylabel(r"$y / R_0$")
 
+    def _cell_points(self) -> float:
+        """Diameter of a cell (2 R0) on the page, points."""
+        return 2.0 * self.ax.get_position().width * self.fig.get_figwidth() * 72.0 / self.box[0]
+
     def draw(self, pos, theta, a, b, q, defect, title=""):
         """Replace the drawn frame; returns the figure."""
         polys, owner = cell_polygons(pos, theta, a, b, self.box)
         q = np.asarray(q, dtype=float)
         defect = np.asarray(defect, dtype=bool)
+        d = self._cell_points()
+        lw = float(np.clip(0.05 * d, 0.15, 0.8))  # outlines stay thin next to small cells
         self.coll.set_verts(polys)
         self.coll.set_array(q[owner])
-        self.coll.set_edgecolor(np.where(defect[owner, None], [[0.835, 0.369, 0.0, 1.0]], [[0.15, 0.15, 0.15, 1.0]]))
-        self.coll.set_linewidth(np.where(defect[owner], 1.4, 0.3))
+        self.coll.set_edgecolor(np.where(defect[owner, None], [[0.835, 0.369, 0.0, 1.0]], [[1.0, 1.0, 1.0, 0.9]]))
+        self.coll.set_linewidth(np.where(defect[owner], 2.5 * lw, lw))
         p = np.asarray(pos)
         self.dots.set_data(p[defect, 0], p[defect, 1])
-        self.ax.set_title(title or f"N = {len(p)}, defect fraction {defect.mean():.2f}", fontsize=9, loc="left")
+        self.dots.set_markersize(float(np.clip(0.2 * d, 1.0, 3.0)))
+        self.ax.set_title(title or f"N = {len(p)}, defect fraction {defect.mean():.2f}", fontsize=self.title_size,
+                          loc="left")
         return self.fig
 
     def rgb(self) -> np.ndarray:
@@ -652,36 +1083,32 @@ class FrameArtist:
         return np.asarray(self.fig.canvas.buffer_rgba())[..., :3].copy()
 
 
-def snapshot(pos, theta, a, b, box, q, defect, *, R0=1.0, title=""):
+def snapshot(pos, theta, a, b, box, q, defect, *, R0=1.0, title="", ax=None):
     """One frame: every cell's contour filled by its shape index q, defect cells
-    (Voronoi neighbours != 6) outlined with a dot at the centroid."""
-    art = FrameArtist(box)
+    (Voronoi neighbours != 6) outlined with a dot at the centroid.
+
+    Parameters
+    ----------
+    pos, theta, a, b : ndarray
+        Centres (in R0), polarity angles and Fourier shape modes of the cells.
+    box : array_like (2,)
+        Box lengths in R0.
+    q, defect : ndarray
+        Shape index and defect flag of every cell.
+    title : str
+        Title (default: N and the defect fraction).
+    ax : matplotlib.axes.Axes, optional
+        Draw into this Axes (else a new figure one column wide).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    art = FrameArtist(box, ax=ax)
     return art.draw(pos, theta, a, b, q, defect, title)
 
 
 # ------------------------------------------------------------------ files -> figures
-
-def _find_run(config, run):
-    runs = config.runs()
-    for spec in runs:
-        if spec.run_id == str(run):
-            return spec
-    try:
-        k = int(run)
-    except (TypeError, ValueError):
-        k = None
-    if k is not None and -len(runs) <= k < len(runs):
-        return runs[k]
-    raise ValueError(f"no run {run!r} in this sweep: give a run id or an index 0..{len(runs) - 1}")
-
-
-def run_trajectory(config, run) -> Path:
-    """Trajectory file of run ``run`` (id or index) of a sweep."""
-    from fcsweep.analysis.pipeline import TRAJECTORY_FILE
-
-    spec = _find_run(config, run)
-    return Path(config.output) / "runs" / spec.run_id / TRAJECTORY_FILE
-
 
 def _frame(traj, k):
     """(pos, theta, a, b, q, defect) of frame ``k``, lengths in R0."""
@@ -701,9 +1128,15 @@ def _frame(traj, k):
 
 
 def _frame_title(traj, k, defect) -> str:
+    """Two lines: the run and its parameters, then the time and the defect fraction (model units)."""
     p = traj.params
-    return (rf"run {p.get('run_id', '')}:  $\eta$ = {p.get('eta', '?')},  $v_0$ = {p.get('v0', '?')},  "
-            rf"t = {traj.time[k]:g},  $\rho_d$ = {np.mean(defect):.2f}")
+
+    def num(name):
+        v = p.get(name, "?")
+        return f"{float(v):g}" if isinstance(v, (int, float, np.number)) else str(v)
+
+    return (rf"run {p.get('run_id', '')}:  $\eta$ = {num('eta')} $F$,  $v_0$ = {num('v0')} $\mu F$" "\n"
+            rf"t = {traj.time[k]:g} {TIME_UNIT},  $\rho_d$ = {np.mean(defect):.2f}")
 
 
 def snapshot_run(traj_path, frame=-1, stem=None) -> list[Path]:
@@ -721,7 +1154,8 @@ def snapshot_run(traj_path, frame=-1, stem=None) -> list[Path]:
 
 def movie_run(traj_path, out=None, *, fps=10, every=1, dpi=120, progress=True) -> Path:
     """MP4 movie of a trajectory: contours coloured by q, defects marked, one frame per
-    ``every`` recorded frames (H.264 via imageio-ffmpeg).
+    ``every`` recorded frames (H.264 via imageio-ffmpeg), slide-size frames
+    (:data:`SLIDE` inches wide) whose pixel sizes are multiples of 16.
 
     Parameters
     ----------
@@ -757,12 +1191,11 @@ def movie_run(traj_path, out=None, *, fps=10, every=1, dpi=120, progress=True) -
     out = Path(out) if out is not None else Path(traj_path).with_name("movie.mp4")
     out.parent.mkdir(parents=True, exist_ok=True)
     frames = range(0, traj.n_frames, max(int(every), 1))
-    art = FrameArtist(traj.box / float(traj.params.get("R0", 1.0)))
-    art.fig.set_dpi(dpi)
+    # frames are whole macro blocks (no rescaling by ffmpeg); yuv420p plays everywhere (QuickTime, browsers)
+    art = FrameArtist(traj.box / float(traj.params.get("R0", 1.0)), width=SLIDE, dpi=dpi, style=SLIDE_STYLE)
     tmp = out.with_name(f".{out.stem}.partial{out.suffix}")
     try:
-        # macro_block_size=16 pads odd sizes; yuv420p plays everywhere (QuickTime, browsers)
-        with imageio.get_writer(tmp, fps=fps, codec="libx264", quality=8, macro_block_size=16,
+        with imageio.get_writer(tmp, fps=fps, codec="libx264", quality=8, macro_block_size=MACRO_BLOCK,
                                 pixelformat="yuv420p", ffmpeg_log_level="error") as writer:
             for k in tqdm(frames, desc="movie", unit="frame", disable=not progress):
                 pos, theta, a, b, q, defect = _frame(traj, k)
@@ -770,7 +1203,6 @@ def movie_run(traj_path, out=None, *, fps=10, every=1, dpi=120, progress=True) -
                 writer.append_data(art.rgb())
         tmp.replace(out)
     finally:
-        plt.close(art.fig)
         if tmp.exists():
             tmp.unlink()
     return out
@@ -789,12 +1221,24 @@ SWEEP_FIGURES = {
 }
 
 
+#: Figures drawn only when the dataset has a variable: name -> (variable, drawing function).
+OPTIONAL_FIGURES = {"summary": ("kthny", summary_diagram)}
+
+
 def plot_dataset(ds, outdir) -> list[Path]:
-    """All sweep figures of a phase-diagram dataset into ``outdir``."""
+    """All sweep figures of a phase-diagram dataset into ``outdir`` (those of
+    :data:`OPTIONAL_FIGURES` where the dataset has their variable, those of
+    :data:`FSS_FIGURES` where it has two or more N)."""
     outdir = Path(outdir)
     out = []
     for name, fn in SWEEP_FIGURES.items():
         out += save_figure(fn(ds), outdir / name)
+    for name, (var, fn) in OPTIONAL_FIGURES.items():
+        if var in ds:
+            out += save_figure(fn(ds), outdir / name)
+    if ds.sizes.get("N", 1) >= 2:
+        for name, fn in FSS_FIGURES.items():
+            out += save_figure(fn(ds), outdir / name)
     return out
 
 
@@ -803,31 +1247,185 @@ class NothingToPlot(RuntimeError):
 
 
 def plot_sweep(config, *, run=None, frame=-1, outdir=None) -> list[Path]:
-    """Sweep figures (aggregating first if needed), or the snapshot of run ``run``.
+    """Sweep figures (aggregating first if needed, :func:`fcsweep.analysis.results.sweep_dataset`),
+    or the snapshot of run ``run``.
 
     Raises
     ------
     NothingToPlot
         When no run of the sweep is analysed (nothing is written).
     """
-    import xarray as xr
-
-    from fcsweep.analysis.pipeline import DATASET_FILE
-
     outdir = Path(outdir) if outdir is not None else Path(config.output) / "figures"
     if run is not None:
-        spec = _find_run(config, run)
+        spec = find_run(config, run)
         return snapshot_run(run_trajectory(config, run), frame, outdir / f"snapshot_{spec.run_id}_frame{frame}")
-    nc = Path(config.output) / DATASET_FILE
-    if nc.exists():
-        with xr.open_dataset(nc) as ds:
-            ds = ds.load()
-    else:
-        from fcsweep.analysis.aggregate import build_dataset, write_dataset
-
-        ds = build_dataset(config)
-        if int(ds.attrs.get("n_analysed", 0)):
-            write_dataset(ds, nc)
-    if "status" in ds and not bool((ds["status"] == 0).any()):
+    ds = sweep_dataset(config)
+    if not has_analysed_run(ds):
         raise NothingToPlot(f"no analysed run in {config.output}: run `fcsweep analyze` first")
     return plot_dataset(ds, outdir)
+
+
+# ------------------------------------------------------------------ finite-size scaling
+
+#: Marker of each N in the finite-size figures (with the Okabe--Ito colours of :func:`largest_cluster`).
+FSS_MARKERS = ("o", "s", "^", "D", "v", "P", "X")
+FSS_PALETTE = tuple(OKABE_ITO[c] for c in ("blue", "vermillion", "green", "orange", "purple", "sky", "black"))
+
+
+def _fss_slice(ds, select):
+    """``(rho_d, P_max, P_max error, N, selection)`` of every (N, eta) point of one v0
+    slice (default: the largest v0): the replicate means where the dataset has them."""
+    sel = dict(select or {})
+    sel.setdefault("v0", ds["v0"].values[-1])
+    sel.pop("N", None)
+    keep = ("N", "eta")
+    if "rho_d_rmean" in ds and "largest_cluster_fraction_rmean" in ds:
+        rho = _select(ds["rho_d_rmean"], keep, sel).values
+        p = _select(ds["largest_cluster_fraction_rmean"], keep, sel).values
+        e = _select(ds["largest_cluster_fraction_rmean_err"], keep, sel).values
+    else:
+        rho = _plane(ds, "rho_d", keep, sel).values
+        p = _plane(ds, "largest_cluster_fraction", keep, sel).values
+        e = _err(ds, "largest_cluster_fraction", keep, sel)
+        e = np.full(p.shape, np.nan) if e is None else e
+    N = np.broadcast_to(ds["N"].values.astype(float)[:, None], p.shape)
+    return rho, p, e, N, sel
+
+
+def _fss_head(ds, sel, own, ax, text):
+    head = rf"$v_0$ = {float(sel['v0']):g} $\mu F$"
+    if text:
+        head += f"; {text}"
+    if own:
+        head += ", " + caption(ds, sel).split(", ", 1)[-1]
+    ax.set_title(textwrap.fill(head, _caption_chars(ax), break_long_words=False), fontsize=CAPTION_SIZE,
+                 loc="left")
+
+
+@_styled
+def fss_collapse_figure(ds, *, select=None, exponents="fit", ax=None):
+    """Finite-size collapse of the largest defect cluster (the paper's Fig. 3c):
+    ``P_max L^(beta/nu)`` against ``(rho_d - rho_c) L^(1/nu)``, ``L = sqrt(N)``, one
+    marker and colour per N, with 1-sigma error bars.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A phase-diagram dataset with two or more N.
+    select : dict, optional
+        The v0 (default: the largest) and other swept values of the slice drawn.
+    exponents : {"fit", "paper"}
+        ``"fit"``: rho_c, nu and beta of the dataset's ``fss_*`` variables (fitted here
+        when the dataset lacks them); ``"paper"``: the exponents of 2-D percolation,
+        nu = 4/3 and beta = 5/36, with rho_c fitted for them
+        (:func:`fcsweep.analysis.percolation.fss_collapse` with ``fixed``).
+    ax : matplotlib.axes.Axes, optional
+        Draw into this Axes (else a new figure one column wide).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from fcsweep.analysis.percolation import BETA_2D, NU_2D, fss_collapse, fss_scaled
+
+    if exponents not in ("fit", "paper"):
+        raise ValueError(f"exponents must be 'fit' or 'paper', got {exponents!r}")
+    rho, p, e, N, sel = _fss_slice(ds, select)
+    own = ax is None
+    fig, ax = _axes(ax, (COLUMN, 2.7))
+    ok = np.isfinite(rho) & np.isfinite(p)
+    fit, why = None, ""
+    if exponents == "fit" and "fss_rho_c" in ds:
+        vals = {k: float(_select(ds[f"fss_{k}"], (), sel).values)
+                for k in ("rho_c", "rho_c_err", "nu", "nu_err", "beta", "beta_err")}
+        if np.isfinite(vals["rho_c"]):
+            fit = vals
+        else:
+            why = str(_select(ds["fss_reason"], (), sel).values) if "fss_reason" in ds else "no fit"
+    elif np.unique(N[ok]).size >= 2:
+        fixed = {"nu": NU_2D, "beta": BETA_2D} if exponents == "paper" else None
+        r = fss_collapse(rho[ok], p[ok], N[ok], np.where(np.isfinite(e[ok]), e[ok], 0.0), fixed=fixed,
+                         n_bootstrap=0)
+        fit = dict(r) if np.isfinite(r.rho_c) else None
+        why = r.reason
+    else:
+        why = "fewer than two N with data"
+    if fit is None:
+        _no_data(ax, textwrap.fill(f"no collapse: {why}", 40))
+        _fss_head(ds, sel, own, ax, "")
+        return fig
+    for k, n in enumerate(ds["N"].values):
+        m = ok[k]
+        if not m.any():
+            continue
+        x, y = fss_scaled(rho[k][m], p[k][m], float(n), fit["rho_c"], fit["nu"], fit["beta"])
+        yerr = e[k][m] * float(n) ** (0.5 * fit["beta"] / fit["nu"])
+        order = np.argsort(x)
+        ax.errorbar(x[order], y[order], yerr=None if not np.isfinite(yerr).any() else yerr[order],
+                    fmt=FSS_MARKERS[k % len(FSS_MARKERS)], ls="none", ms=3.5, capsize=1.5, mfc="none",
+                    color=FSS_PALETTE[k % len(FSS_PALETTE)], label=f"N = {int(n)}")
+    ax.axvline(0, color="0.6", lw=0.7, ls=":")
+    ax.set_xlabel(r"$(\rho_d - \rho_c)\,L^{1/\nu}$,  $L = \sqrt{N}$")
+    ax.set_ylabel(r"$P_{\max}\,L^{\beta/\nu}$")
+
+    def pm(name, digits):
+        err = fit.get(f"{name}_err", np.nan)
+        v = f"{fit[name]:.{digits}f}"
+        return v + (rf" $\pm$ {err:.{digits}f}" if np.isfinite(err) and err > 0 else "")
+
+    if exponents == "paper":
+        text = rf"$\rho_c$ = {pm('rho_c', 3)}, $\nu$ = 4/3, $\beta$ = 5/36 (2-D percolation)"
+    else:
+        text = rf"$\rho_c$ = {pm('rho_c', 3)}, $\nu$ = {pm('nu', 2)}, $\beta$ = {pm('beta', 3)} (fit)"
+    _fss_head(ds, sel, own, ax, text)
+    ax.legend(loc="upper left")
+    return fig
+
+
+@_styled
+def largest_cluster_unscaled(ds, *, select=None, ax=None):
+    """Largest defect-cluster fraction P_max against the defect fraction rho_d, one
+    marker and colour per N, with 1-sigma error bars (the paper's Fig. S7: the data of
+    the collapse, :func:`fss_collapse_figure`, before scaling); the 2-D percolation
+    threshold rho_d = 1/2 is marked.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A phase-diagram dataset.
+    select : dict, optional
+        The v0 (default: the largest) and other swept values of the slice drawn.
+    ax : matplotlib.axes.Axes, optional
+        Draw into this Axes (else a new figure one column wide).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    rho, p, e, N, sel = _fss_slice(ds, select)
+    own = ax is None
+    fig, ax = _axes(ax, (COLUMN, 2.7))
+    ok = np.isfinite(rho) & np.isfinite(p)
+    for k, n in enumerate(ds["N"].values):
+        m = ok[k]
+        if not m.any():
+            continue
+        order = np.argsort(rho[k][m])
+        yerr = e[k][m][order]
+        ax.errorbar(rho[k][m][order], p[k][m][order], yerr=yerr if np.isfinite(yerr).any() else None,
+                    fmt=FSS_MARKERS[k % len(FSS_MARKERS)] + "-", ms=3.5, capsize=1.5, mfc="none", lw=0.8,
+                    color=FSS_PALETTE[k % len(FSS_PALETTE)], label=f"N = {int(n)}")
+    if not ok.any():
+        _no_data(ax)
+    ax.axvline(RHO_D_PERCOLATION, color="0.6", lw=0.7, ls=":")
+    ax.set_xlabel(r"defect fraction $\rho_d$")
+    ax.set_ylabel(r"$P_{\max} = s_{\max}/N$")
+    ax.set_ylim(-0.02, 1.02)
+    _fss_head(ds, sel, own, ax, "")
+    if ok.any():
+        ax.legend(loc="upper left")
+    return fig
+
+
+#: Figures drawn when the dataset has two or more N: name -> drawing function.
+FSS_FIGURES = {"fss_collapse": fss_collapse_figure, "largest_cluster_unscaled": largest_cluster_unscaled}

@@ -202,8 +202,7 @@ def _classify_with_cages(D, De, q, qe, diffusion_ok, diffusion_note, p_broken, c
         if conf < min_confidence:
             return Label(PHASE_UNDETERMINED, conf, f"D_eff = {_fmt(D, De)} reads solid but the cages may be "
                                                    f"broken (P = {p_broken:.2f}); a longer run decides")
-        return Label(PHASE_SOLID, conf, f"P(solid) = {conf:.3f}; cages intact ({cage_note})"
-                     if cage_note else f"P(solid) = {conf:.3f}")
+        return Label(PHASE_SOLID, conf, f"P(solid) = {conf:.3f}; {cage_note}" if cage_note else f"P(solid) = {conf:.3f}")
     conf = float(max(p_solid_d, 1.0 - p_solid_d)) if np.isfinite(p_solid_d) else float("nan")
     if not diffusion_ok:
         why = diffusion_note or "D_eff estimate not trustworthy"
@@ -216,7 +215,7 @@ def _classify_with_cages(D, De, q, qe, diffusion_ok, diffusion_note, p_broken, c
     else:
         why = f"D_eff = {_fmt(D, De)} too close to the solid threshold {d_solid:g} (P = {conf:.2f})"
     cage = cage_note or "no evidence that the cells left their cages"
-    return Label(PHASE_UNDETERMINED, conf, f"{why}; {cage}")
+    return Label(PHASE_UNDETERMINED, conf, f"{why}; {cage}; a longer run decides")
 
 
 def classify_percolation(rho_d, rho_d_err, *, min_confidence: float = MIN_CONFIDENCE,

@@ -46,18 +46,20 @@ import numpy as np
 from fcsweep import __version__
 from fcsweep.analysis import cage, diffusion, order, shapes, voronoi
 from fcsweep.analysis.msd import log_lag_indices, msd_curve
-from fcsweep.analysis.phase import (MIN_CONFIDENCE, PHASE_SOLID, classify_percolation, classify_phase,
-                                    phase_probabilities)
+from fcsweep.analysis.phase import MIN_CONFIDENCE, classify_percolation, classify_phase, phase_name
 from fcsweep.analysis.stats import time_average
 from fcsweep.analysis.trajectory import TrajectoryError, open_trajectory
+from fcsweep.io import schema
 from fcsweep.io.machine import worker_layout
+from fcsweep.io.sweepdir import run_path, run_state
 
-ANALYSIS_FILE = "analysis.h5"
-TRAJECTORY_FILE = "trajectory.h5"
-STATUS_FILE = "status.json"
-DATASET_FILE = "phase_diagram.nc"
+#: File names of a sweep directory (declared once, in :mod:`fcsweep.io.schema`).
+ANALYSIS_FILE = schema.ANALYSIS
+TRAJECTORY_FILE = schema.TRAJECTORY
+STATUS_FILE = schema.STATUS
+DATASET_FILE = schema.DATASET
 #: Written beside the trajectory when its analysis fails (the reason), removed on success.
-ANALYSIS_ERROR_FILE = "analysis_error.txt"
+ANALYSIS_ERROR_FILE = schema.ANALYSIS_ERROR
 
 DEFAULT_SETTINGS = {
     "transient": 0.2,
@@ -318,7 +320,7 @@ def cage_evidence(sc: dict) -> tuple[float, str]:
                               f"less than {cage.BOUND_FACTOR:g} x the solid threshold")
     if p >= 0.5:
         return float(p), where
-    return float(p), f"no cage broken within the window ({where}); a longer run decides"
+    return float(p), f"no cage broken within the window ({where})"
 
 
 # ------------------------------------------------------------------ one run: files
@@ -401,7 +403,16 @@ def analyze_run(traj_path, out_path=None, *, transient=0.2, force=False, setting
     traj = open_trajectory(traj_path)
     sc, cv, extra = compute_observables(traj, s)
     _write_analysis(out_path, traj, s, sc, cv, extra)
-    return {"status": "done", "message": f"{int(sc['n_frames'])} frames", "path": str(out_path), **sc}
+    return {"status": "done", "message": f"{int(sc['n_frames'])} frames; {label_summary(sc)}",
+            "path": str(out_path), **sc}
+
+
+def label_summary(sc: dict) -> str:
+    """One line for a terminal: the phase label with its confidence, or why undetermined."""
+    name = phase_name(int(sc["phase"])) if np.isfinite(sc.get("phase", np.nan)) else "unknown"
+    if name in ("undetermined", "unknown"):
+        return f"{name}: {sc.get('phase_reason', '')}"
+    return f"{name} (P = {float(sc['phase_confidence']):.3f})"
 
 
 def _read_status(run_dir: Path) -> dict | None:
@@ -446,8 +457,10 @@ def _init_worker(threads: int) -> None:
 def analyze_sweep(config, *, workers=1, force=False, settings=None) -> list:
     """Analyse every finished run of a sweep.
 
-    Runs whose ``status.json`` is not "done" are reported as "skipped" with their status;
-    analysis errors are reported as "failed" (the sweep goes on).
+    Runs that are not done (the state of :func:`fcsweep.io.sweepdir.run_state`, which
+    ``fcsweep status`` shows) are reported as "skipped" with their state; analysis errors
+    are reported as "failed" (the sweep goes on).  The runs are read once, so points that
+    ``fcsweep refine`` adds meanwhile are left for the next call.
 
     Returns
     -------
@@ -455,16 +468,16 @@ def analyze_sweep(config, *, workers=1, force=False, settings=None) -> list:
         status is "done", "skipped" or "failed", in run order.
     """
     transient = float(getattr(getattr(config, "run", None), "transient", DEFAULT_SETTINGS["transient"]))
+    specs = list(config.runs())
     out = {}
     todo = []
-    for spec in config.runs():
-        rd = Path(config.output) / "runs" / spec.run_id
-        st = _read_status(rd)
-        if st is None:
+    for spec in specs:
+        rd = run_path(config.output, spec.run_id)
+        rs = run_state(rd)
+        if rs.status is None and rs.state == schema.PENDING:
             out[spec.run_id] = ("skipped", "not run (no status.json)")
-        elif st.get("status") != "done":
-            reason = st.get("reason", "")
-            out[spec.run_id] = ("skipped", f"run {st.get('status', '?')}" + (f": {reason}" if reason else ""))
+        elif rs.state != schema.DONE:
+            out[spec.run_id] = ("skipped", f"run {rs.state}" + (f": {rs.reason}" if rs.reason else ""))
         else:
             todo.append((spec.run_id, rd / TRAJECTORY_FILE))
     if workers <= 1 or len(todo) <= 1:
@@ -479,4 +492,4 @@ def analyze_sweep(config, *, workers=1, force=False, settings=None) -> list:
                     out[futs[fut]] = fut.result()
                 except Exception as exc:  # noqa: BLE001 - e.g. a worker killed for memory
                     out[futs[fut]] = ("failed", f"{type(exc).__name__}: {exc}")
-    return [(spec.run_id, *out[spec.run_id]) for spec in config.runs()]
+    return [(spec.run_id, *out[spec.run_id]) for spec in specs]

@@ -9,30 +9,17 @@ never a partial file, whatever moment the writer is killed.
 
 from __future__ import annotations
 
-import os
 import zipfile
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
 import numpy as np
 
+from fcsweep.io.sweepdir import atomic_write, fsync_dir
+
 __all__ = ["save_checkpoint", "load_checkpoint", "split_meta", "META_PREFIX", "fsync_dir"]
 
 META_PREFIX = "_sweep_"
-
-
-def fsync_dir(path) -> None:
-    """fsync a directory so a rename inside it is durable (no-op where unsupported)."""
-    try:
-        fd = os.open(path, os.O_RDONLY)
-    except OSError:  # pragma: no cover
-        return
-    try:
-        os.fsync(fd)
-    except OSError:  # pragma: no cover - e.g. some network file systems
-        pass
-    finally:
-        os.close(fd)
 
 
 def save_checkpoint(
@@ -55,18 +42,14 @@ def save_checkpoint(
         Called with the temporary path after it is written and before the rename
         (test hook for kills during a checkpoint write).
     """
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     arrays = {k: np.asarray(v) for k, v in state.items()}
     arrays.update({META_PREFIX + k: np.asarray(v) for k, v in meta.items()})
-    with open(tmp, "wb") as fh:
-        np.savez(fh, **arrays)
-        fh.flush()
-        os.fsync(fh.fileno())
-    if before_replace is not None:
-        before_replace(tmp)
-    os.replace(tmp, path)
-    fsync_dir(path.parent)
+
+    def write(tmp: Path) -> None:
+        with open(tmp, "wb") as fh:
+            np.savez(fh, **arrays)
+
+    atomic_write(path, write, fsync=True, before_replace=before_replace)
 
 
 def load_checkpoint(path, keys=None) -> dict[str, Any] | None:

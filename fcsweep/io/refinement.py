@@ -16,13 +16,15 @@ atomically.
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
+from fcsweep.io.schema import REFINEMENT
+from fcsweep.io.sweepdir import atomic_write
+
 __all__ = ["REFINEMENT_FILE", "RefinementError", "read_rounds", "read_points", "append_round"]
 
-REFINEMENT_FILE = "refinement.json"
+REFINEMENT_FILE = REFINEMENT
 VERSION = 1
 
 
@@ -65,7 +67,6 @@ def append_round(output, points: Sequence[Mapping[str, Any]], why: Sequence[str]
     rounds.append({"round": number, "created": created, "points": [dict(p) for p in points],
                    "why": list(why)})
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_text(json.dumps({"version": VERSION, "rounds": rounds}, indent=1) + "\n")
-    os.replace(tmp, path)
+    text = json.dumps({"version": VERSION, "rounds": rounds}, indent=1) + "\n"
+    atomic_write(path, lambda tmp: tmp.write_text(text))
     return number

@@ -7,7 +7,7 @@
                  |-> failed        (cause "simulation": final until --retry-failed;
                  |                  cause "io": disk full, quota, EIO, read-only --
                  |                  the next launch resumes from the last checkpoint)
-    done -> corrupt                (the trajectory fails its checksums; recomputed)
+    done -> corrupt                (the trajectory fails its checksums or is gone; recomputed)
 
 so that the sweep runner handles each fault in one place.  Writes of the failure states
 are best effort: a full disk may refuse even ``status.json``, and the run's lock is
@@ -30,6 +30,7 @@ from fcsweep.io.checkpoint import META_PREFIX, load_checkpoint, split_meta
 from fcsweep.io.h5md import verify_trajectory
 from fcsweep.io.locks import DEFAULT_STALE_AFTER, RunLock, lock_info, lock_is_stale
 from fcsweep.io.status import read_status, write_status
+from fcsweep.io.sweepdir import run_state
 
 __all__ = ["RunDirectory", "io_error_cause", "free_bytes", "ensure_free_space", "now_iso"]
 
@@ -130,16 +131,10 @@ class RunDirectory:
         return info if info is not None and not lock_is_stale(info, stale_after) else None
 
     def state(self, stale_after: float = DEFAULT_STALE_AFTER) -> str:
-        """The state a reader should show: the status word, with ``running`` only while a
-        live lock backs it (else ``interrupted``) and ``done`` only with a trajectory."""
-        st = self.status().get("status", schema.PENDING)
-        if st == schema.DONE and not self.trajectory.exists():
-            st = schema.PENDING
-        if st != schema.DONE and self.live_lock(stale_after) is not None:
-            return schema.RUNNING
-        if st == schema.RUNNING:
-            return schema.INTERRUPTED
-        return st
+        """The state a reader should show (:func:`fcsweep.io.sweepdir.run_state`): the
+        status word, with ``running`` only while a live lock backs it (else
+        ``interrupted``) and ``done`` only with a trajectory (else ``corrupt``)."""
+        return run_state(self.path, stale_after).state
 
     def committed_frames(self) -> int:
         """Frames of a running run that a live reader may use: those the last checkpoint
@@ -245,8 +240,3 @@ class RunDirectory:
                            steps_done=0, steps=prev.get("steps"), fingerprint=prev.get("fingerprint"),
                            attempts=prev.get("attempts", 1),
                            **{k: prev[k] for k in schema.COST_KEYS if k in prev})
-
-    def failed_for_good(self) -> bool:
-        """A failure that relaunching alone will not fix (not an I/O failure)."""
-        st = self.status()
-        return st.get("status") == schema.FAILED and st.get("cause") != schema.CAUSE_IO

@@ -11,6 +11,9 @@ LOCK = "run.lock"
 ANALYSIS = "analysis.h5"
 #: Written by a failed analysis (``fcsweep.analysis.pipeline.ANALYSIS_ERROR_FILE``).
 ANALYSIS_ERROR = "analysis_error.txt"
+#: File names inside ``<output>/``: the aggregated dataset and the points ``fcsweep refine`` added.
+DATASET = "phase_diagram.nc"
+REFINEMENT = "refinement.json"
 
 #: Group of the particle time series and the box.
 PARTICLES = "/particles/cells"

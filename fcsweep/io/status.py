@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -14,13 +13,14 @@ __all__ = ["write_status", "read_status"]
 
 def write_status(run_dir, data: Mapping[str, Any]) -> None:
     """Replace ``run_dir/status.json`` with ``data`` atomically."""
-    run_dir = Path(run_dir)
-    path = run_dir / STATUS
-    tmp = run_dir / f".{STATUS}.{os.getpid()}.tmp"
-    with open(tmp, "w") as fh:
-        json.dump(dict(data), fh, indent=1, sort_keys=True)
-        fh.write("\n")
-    os.replace(tmp, path)
+    from fcsweep.io.sweepdir import atomic_write  # sweepdir reads status files: imported here
+
+    def write(tmp: Path) -> None:
+        with open(tmp, "w") as fh:
+            json.dump(dict(data), fh, indent=1, sort_keys=True)
+            fh.write("\n")
+
+    atomic_write(Path(run_dir) / STATUS, write)
 
 
 def read_status(run_dir) -> dict[str, Any] | None:

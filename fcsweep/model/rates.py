@@ -15,6 +15,7 @@ Equations (docs/model.md), with ``o_ik`` the overlap weight of contour point k o
 from __future__ import annotations
 
 import itertools
+import warnings
 
 import numpy as np
 
@@ -22,6 +23,8 @@ from .shape import a0_of, amplitude_sum, mode_numbers, radius
 
 #: Quadrature rules for the overlap weights.
 QUADRATURES = ("binary", "linear", "arc")
+#: Above this many cells :func:`rates` warns that it is a slow reference.
+SLOW_ABOVE_N = 256
 
 
 def _images(box):
@@ -423,9 +426,20 @@ def rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, contour_points=40, qua
         ``"dpos"`` (N, 2) including ``v0 e(theta)``, ``"dtheta"`` (N,),
         ``"da"`` and ``"db"`` (N, M-1).  With zero-width mode arrays (``modes = 0``)
         the cells are rigid discs with the exact lens force (:func:`disc_rates`).
+
+    Warns
+    -----
+    UserWarning
+        For more than :data:`SLOW_ABOVE_N` cells: this reference loops over all pairs in
+        Python (tens of seconds at N = 1024); ``fcsweep.kernels.api.kernel_rates`` is the
+        fast equivalent.
     """
     pos = np.asarray(pos, dtype=float).reshape(-1, 2)
     N = len(pos)
+    if N > SLOW_ABOVE_N:
+        warnings.warn(f"fcsweep.model.rates is the slow numpy reference (all pairs in Python); N = {N} takes "
+                      "seconds to minutes: use fcsweep.kernels.api.kernel_rates for large N",
+                      UserWarning, stacklevel=2)
     theta = np.asarray(theta, dtype=float).reshape(N)
     a = np.asarray(a, dtype=float).reshape(N, -1)
     b = np.asarray(b, dtype=float).reshape(N, -1)

@@ -1,26 +1,22 @@
 """Throughput of the step on this machine, and what it means for a sweep.
 
-:func:`measure_throughput` times :meth:`fcsweep.simulation.Simulation.advance` after the
-cells have left the lattice; :func:`bench_sweep` does so once per distinct cost setting of
-a sweep (N, modes, K, quadrature, and the state parameters of the first run with them)
-and turns the rates into the CPU time of the whole sweep.  Rates depend on the state
-(contacts per cell), so a setting is timed at the parameters of its first run.
+Every estimate here rests on one number per cost setting, the CPU seconds per cell-step
+of :func:`fcsweep.sweep.cost.cell_step_seconds` (timed at one thread with the process CPU
+clock, median of repeats, cached per machine: see :mod:`fcsweep.sweep.cost`).
+:func:`bench_sweep` measures it afresh for every distinct cost setting of a sweep (and
+refreshes the cache); :func:`estimate_costs` (``fcsweep simulate --dry-run``) reads the
+cache, measuring only settings not yet measured on this machine.  Both turn it into the
+time of each run with the same model (:func:`run_cpu_seconds`, :func:`run_seconds`)::
 
-The cost model of a run (:func:`run_cpu_seconds`, :func:`run_seconds`), used by
-``fcsweep bench`` and ``fcsweep simulate --dry-run``::
-
-    cpu  = RUN_CPU_S + CHECKPOINT_CPU_S x checkpoints + N x steps / rate
+    cpu  = RUN_CPU_S + CHECKPOINT_CPU_S x checkpoints + N x steps x seconds_per_cell_step
     wall = cpu / share + RUN_IO_S + CHECKPOINT_IO_S x checkpoints
 
-``rate`` is cell-steps per CPU second of the step, ``share`` the fraction of a core the
-process gets on this machine now (CPU time / wall time while timing: on a machine
-shared with other jobs it is well below 1, and it is why a rate timed as "best of 3" on
-the wall clock underestimated runs by 2x); the constants are the CPU time a run spends
-outside the step and per checkpoint, and the time it waits for the disk, measured on
-the 2-core development machine with a local disk (``benchmarks/cost_model.py`` checks
-the model against runs).  :func:`estimate_costs` calibrates ``rate x share`` per cost setting from the
-sweep's own finished runs when there are any, else by timing the step now
-(:func:`probe_cost`).
+with ``share`` = 1 (one free core per run): the load of other jobs changes from minute to
+minute and is reported beside the estimate (:func:`cpu_share`), not folded into it, so
+that two estimates of the same sweep agree.  The constants are the CPU time a run spends
+outside the step and per checkpoint, and the time it waits for the disk, measured on the
+2-core development machine with a local disk (``benchmarks/cost_model.py`` checks the
+model against runs).
 """
 
 from __future__ import annotations
@@ -28,7 +24,6 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 
-from fcsweep.io.status import read_status
 from fcsweep.model.integrators import integrator_problem
 
 #: CPU seconds a run spends outside the step (trajectory, lock and status files, final
@@ -88,6 +83,7 @@ class BenchRow:
     rate: float
     own: bool  # the sweep's own quadrature (not a --compare alternative)
     cell_steps_min: float | None = None  # with run.until: every run settled at its first check
+    spread: float = 0.0  # (max - min) / median of the timed blocks
 
     @property
     def cpu_seconds(self) -> float:
@@ -111,9 +107,23 @@ def first_stop(run) -> int:
     return min(run.steps, first)
 
 
-def bench_sweep(cfg, *, steps=200, warm=2000, quadratures=None, threads=1, log=None) -> list[BenchRow]:
+def setting_groups(cfg, specs=None) -> dict[tuple, list]:
+    """Runs of ``cfg`` (or ``specs``) grouped by cost setting (:data:`COST_KEYS`), in order
+    of first appearance."""
+    groups: dict[tuple, list] = {}
+    for spec in (cfg.runs() if specs is None else specs):
+        groups.setdefault(tuple(spec.params[k] for k in COST_KEYS), []).append(spec)
+    return groups
+
+
+def bench_sweep(cfg, *, steps=None, warm=None, quadratures=None, threads=1, log=None) -> list[BenchRow]:
     """Measure every distinct cost setting of ``cfg`` (and, with ``quadratures``, the
     same settings with each of those rules instead) at ``threads`` numba threads.
+
+    Each setting is timed at its first and last run (:func:`fcsweep.sweep.cost.setting_points`)
+    with :func:`fcsweep.sweep.cost.cell_step_seconds`, refreshing the machine's cost
+    cache; ``steps`` (timed steps per block at N = 1024, scaled by 1024/N) and ``warm``
+    (steps off the lattice) replace its standard protocol, and such timings are not cached.
 
     Returns one :class:`BenchRow` per (setting, quadrature), in order of first
     appearance; ``cell_steps`` is N x run.steps summed over the runs of the setting
@@ -121,12 +131,10 @@ def bench_sweep(cfg, *, steps=200, warm=2000, quadratures=None, threads=1, log=N
     ``cell_steps_min`` is N x :func:`first_stop` summed likewise: the sweep costs
     between the two.
     """
-    groups: dict[tuple, list] = {}
-    for spec in cfg.runs():
-        key = tuple(spec.params[k] for k in COST_KEYS)
-        groups.setdefault(key, []).append(spec)
+    from fcsweep.sweep.cost import cell_step_seconds, setting_points
+
     rows = []
-    for specs in groups.values():
+    for specs in setting_groups(cfg).values():
         base = dict(specs[0].params)
         rules = [base["quadrature"]] if not quadratures or base["modes"] == 0 else list(quadratures)
         # a quadrature the run's integrator cannot use (contact-jacobi needs arc) is not compared
@@ -135,14 +143,15 @@ def bench_sweep(cfg, *, steps=200, warm=2000, quadratures=None, threads=1, log=N
         work = float(sum(s.params["N"] for s in specs)) * cfg.run.steps
         least = float(sum(s.params["N"] for s in specs)) * first_stop(cfg.run) if cfg.run.until else None
         for rule in rules:
-            params = {**base, "quadrature": rule}
-            per_block = max(int(steps * 1024 // params["N"]), 10)
-            if log:
-                log(f"timing N={params['N']} modes={params['modes']} K={params['contour_points']} {rule} "
-                    f"{params['integrator']} ...")
-            rate = measure_throughput(params, steps=per_block, warm=warm, threads=threads)
-            rows.append(BenchRow({k: params[k] for k in COST_KEYS}, len(specs), work, rate,
-                                 own=rule == base["quadrature"], cell_steps_min=least))
+            points = [{**p, "quadrature": rule} for p in setting_points(specs)]
+            options = {}
+            if steps is not None:
+                options["block_cell_steps"] = float(steps) * 1024
+            if warm is not None:
+                options["warm_cell_steps"] = float(warm) * base["N"]
+            cost = cell_step_seconds(points, threads=threads, refresh=True, log=log, **options)
+            rows.append(BenchRow({k: points[0][k] for k in COST_KEYS}, len(specs), work, cost.rate,
+                                 own=rule == base["quadrature"], cell_steps_min=least, spread=cost.spread))
     return rows
 
 
@@ -180,39 +189,6 @@ def run_seconds(params, steps: int, checkpoints: int, cost: StepCost) -> float:
             + RUN_IO_S + CHECKPOINT_IO_S * checkpoints)
 
 
-def probe_cost(params_list, *, cell_steps: float = 1e5, blocks: int = 3, threads: int | None = None) -> StepCost:
-    """Time the step from the lattice at each of ``params_list`` (the first and last
-    run of a cost setting: the state changes the cost): one block of ``cell_steps``
-    cell-steps to leave the lattice, then ``blocks`` timed blocks.  Returns the pooled
-    rate (all timed cell-steps / their CPU time) and the CPU share of the process over
-    them.  A few seconds per setting on this machine (after compilation)."""
-    import numba
-
-    from fcsweep.simulation import Simulation
-
-    previous = numba.get_num_threads()
-    if threads is not None:
-        numba.set_num_threads(int(threads))
-    work = cpu = wall = 0.0
-    try:
-        for params in params_list:
-            N = int(params["N"])
-            steps = max(int(cell_steps // N), 5)
-            sim = Simulation.from_lattice(**dict(params))
-            sim.advance(steps)
-            threads_used = max(1, min(numba.get_num_threads(), N // 512))
-            c0, w0 = time.process_time(), time.perf_counter()
-            sim.advance(blocks * steps)
-            cpu += (time.process_time() - c0) / threads_used
-            wall += time.perf_counter() - w0
-            work += N * blocks * steps
-    finally:
-        numba.set_num_threads(previous)
-    share = min(cpu / max(wall, 1e-9), 1.0)
-    rate = work / max(cpu, 1e-9)
-    return StepCost(rate, share, f"step timed now: {rate:.3g} cell-steps per CPU s, {share:.0%} of a core free")
-
-
 def cpu_share(seconds: float = 0.5) -> float:
     """Fraction of a core this process gets now (CPU / wall time of a busy loop)."""
     c0, w0 = time.process_time(), time.perf_counter()
@@ -221,58 +197,33 @@ def cpu_share(seconds: float = 0.5) -> float:
     return min((time.process_time() - c0) / max(time.perf_counter() - w0, 1e-9), 1.0)
 
 
-def history_cost(cfg, specs) -> StepCost | None:
-    """The step speed finished runs of ``specs`` reached: their wall time less the
-    model's overheads, at the CPU share this process gets now (assuming the machine is
-    as busy as when they ran); None if none is done."""
-    done = []
-    for spec in specs:
-        st = read_status(cfg.run_dir(spec.run_id)) or {}
-        if st.get("status") == "done" and st.get("wall_seconds") and st.get("steps_done"):
-            done.append((int(spec.params["N"]), int(st["steps_done"]), float(st["wall_seconds"])))
-    if not done:
-        return None
-    share = cpu_share()
-    work = cpu = 0.0
-    for N, steps, wall in done:
-        k = -(-steps // cfg.run.checkpoint_every)
-        step_cpu = (wall - RUN_IO_S - CHECKPOINT_IO_S * k) * share - RUN_CPU_S - CHECKPOINT_CPU_S * k
-        if step_cpu > 0:
-            work += N * steps
-            cpu += step_cpu
-    if not cpu:
-        return None
-    return StepCost(work / cpu, share, f"speed of {len(done)} finished run(s) of this sweep: "
-                    f"{work / cpu * share:.3g} cell-steps per s, {share:.0%} of a core free now")
-
-
-def estimate_costs(cfg, plans, *, log=None) -> tuple[list[tuple[float, float]], float, str]:
+def estimate_costs(cfg, plans, *, log=None) -> tuple[list[tuple[float, float]], str]:
     """Estimated (CPU, wall) seconds of every planned run
-    (:class:`fcsweep.sweep.plan.PlannedRun` with steps left), the CPU share of a core
-    this process gets now, and a line saying how the estimate was calibrated.
+    (:class:`fcsweep.sweep.plan.PlannedRun` with steps left), each on a free core, and a
+    line saying where the cost per cell-step comes from.
 
-    Per cost setting (:data:`COST_KEYS`): the speed of the sweep's finished runs with
-    that setting if there are any, else :func:`probe_cost` at the first run's
-    parameters (compiling the kernels first if needed).
+    Per cost setting (:data:`COST_KEYS`): :func:`fcsweep.sweep.cost.cell_step_seconds`
+    at the setting's first and last run -- the cached measurement of this machine, or a
+    measurement now (compiling the kernels first if needed), which is then cached.
     """
-    groups: dict[tuple, list] = {}
-    for spec in cfg.runs():
-        groups.setdefault(tuple(spec.params[k] for k in COST_KEYS), []).append(spec)
+    from fcsweep.sweep.cost import cell_step_seconds, setting_points
+
+    groups = setting_groups(cfg)
     costs: dict[tuple, StepCost] = {}
+    lines = []
     for p in plans:
         key = tuple(p.spec.params[k] for k in COST_KEYS)
         if key in costs:
             continue
-        cost = history_cost(cfg, groups[key])
-        if cost is None:
+        points = setting_points(groups[key])
+        c = cell_step_seconds(points, measure=False)
+        if c.source != "cached":
             from fcsweep.sweep.warmup import compile_kernels
 
             compile_kernels(log)
-            if log:
-                log("timing N={} modes={} K={} {} {} for the estimate ...".format(*key))
-            members = groups[key]
-            cost = probe_cost([members[0].params] + ([members[-1].params] if len(members) > 1 else []))
-        costs[key] = cost
+            c = cell_step_seconds(points, log=log)
+        costs[key] = StepCost(c.rate, 1.0, c.source)
+        lines.append(f"N={key[0]} {key[3]}: {c.describe()}")
     out = []
     for p in plans:
         cost = costs[tuple(p.spec.params[k] for k in COST_KEYS)]
@@ -280,8 +231,7 @@ def estimate_costs(cfg, plans, *, log=None) -> tuple[list[tuple[float, float]], 
         checkpoints = -(-(p.from_step + p.steps_left) // every) - p.from_step // every
         out.append((run_cpu_seconds(p.spec.params, p.steps_left, checkpoints, cost),
                     run_seconds(p.spec.params, p.steps_left, checkpoints, cost)))
-    share = min((c.share for c in costs.values()), default=1.0)
-    return out, share, "; ".join(sorted({c.source for c in costs.values()}))
+    return out, "; ".join(lines)
 
 
 def wall_time(seconds, processes: int) -> float:
@@ -295,7 +245,7 @@ def wall_time(seconds, processes: int) -> float:
 
 def sweep_seconds(cfg, rows) -> list[tuple[float, float]]:
     """Estimated (CPU, wall) seconds of every run of ``cfg`` on a free core, from
-    :func:`bench_sweep` rows of its own quadratures (rates timed on the wall clock)."""
+    :func:`bench_sweep` rows of its own quadratures (the model of :func:`estimate_costs`)."""
     speed = {tuple(r.setting[k] for k in COST_KEYS): r.rate for r in rows}
     checkpoints = -(-cfg.run.steps // cfg.run.checkpoint_every)
     out = []

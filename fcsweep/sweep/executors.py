@@ -78,20 +78,12 @@ def _set_numba_threads(threads: int) -> None:
         pass
 
 
-def _rundir(cfg: SweepConfig, spec: RunSpec) -> RunDirectory:
-    return RunDirectory(cfg.run_dir(spec.run_id), spec.run_id, spec.index, spec.params)
-
-
 def _task(cfg: SweepConfig, spec: RunSpec, force: bool, stale_after: float, skip_failed: bool,
           stop=None, progress=None) -> RunOutcome:
     """Picklable unit of work for pools and Dask.  With ``skip_failed``, a run that failed
     for a reason a relaunch does not fix (not an I/O error) is reported, not rerun."""
-    if skip_failed:
-        rd = _rundir(cfg, spec)
-        if rd.failed_for_good():
-            return RunOutcome(spec.index, spec.run_id, "failed",
-                              f"failed earlier ({rd.status().get('reason', '')}); use --retry-failed")
-    return run_one(cfg, spec, force=force, stale_after=stale_after, stop=stop, progress=progress)
+    return run_one(cfg, spec, force=force, stale_after=stale_after, stop=stop, progress=progress,
+                   retry_failed=not skip_failed)
 
 
 class _DaskStop:

@@ -24,7 +24,11 @@ import threading
 from contextlib import contextmanager
 from typing import Iterator
 
-__all__ = ["SIGNALS", "install", "requested", "reason", "request", "clear", "exit_code", "handling"]
+__all__ = ["SIGNALS", "install", "requested", "reason", "request", "clear", "exit_code", "handling",
+           "NOT_STARTED", "interrupted_counts", "interrupted_phrase"]
+
+#: Message of an ``interrupted`` outcome for a run that never began (the stop came first).
+NOT_STARTED = "not started"
 
 #: Signals that stop a sweep gracefully (batch time limits and scancel send SIGTERM;
 #: ``sbatch --signal=B:USR1@60`` can ask for SIGUSR1 ahead of the limit).
@@ -109,3 +113,21 @@ def clear() -> None:
 def exit_code(signum: int) -> int:
     """Shell convention: ``128 + signum`` (SIGINT 130, SIGTERM 143)."""
     return 128 + int(signum)
+
+
+def interrupted_counts(outcomes) -> tuple[int, int]:
+    """(stopped, not_started) among the ``interrupted`` outcomes of a sweep: runs stopped
+    while computing (each wrote a checkpoint at its current step) and runs never begun
+    because the stop came first (nothing to checkpoint; the next ``simulate`` starts them)."""
+    hit = [o for o in outcomes if o.outcome == "interrupted"]
+    not_started = sum(o.message == NOT_STARTED for o in hit)
+    return len(hit) - not_started, not_started
+
+
+def interrupted_phrase(outcomes) -> str:
+    """E.g. ``1 stopped and checkpointed, 1 not started`` (empty without interrupted
+    runs): one wording for the summary line and the stop line, so their counts agree."""
+    stopped, not_started = interrupted_counts(outcomes)
+    parts = ([f"{stopped} stopped and checkpointed"] if stopped else []) + \
+        ([f"{not_started} not started"] if not_started else [])
+    return ", ".join(parts)

@@ -75,7 +75,7 @@ import numpy as np
 
 from fcsweep.config import RunSpec, SweepConfig
 from fcsweep.io import schema
-from fcsweep.io.checkpoint import fsync_dir, load_checkpoint, save_checkpoint, split_meta
+from fcsweep.io.checkpoint import load_checkpoint, save_checkpoint, split_meta
 from fcsweep.io.h5md import (
     append_frames,
     create_trajectory,
@@ -89,8 +89,10 @@ from fcsweep.io.h5md import (
 )
 from fcsweep.io.locks import DEFAULT_STALE_AFTER, LockLost
 from fcsweep.io.rundir import RunDirectory, ensure_free_space, io_error_cause, now_iso
+from fcsweep.io.sweepdir import atomic_write, fsync_dir
 from fcsweep.sweep import interrupt
-from fcsweep.sweep.length import LENGTH_KEYS, STOP_SETTLED, STOP_STEPS, extension_of, frames_done, same_physics
+from fcsweep.sweep.length import STOP_SETTLED, STOP_STEPS, extension_of, same_physics
+from fcsweep.sweep.lifecycle import assess, conflict_message, extension_blocker, fingerprint_of
 
 __all__ = ["RunOutcome", "run_one", "fingerprint_of", "trajectory_bytes", "SPILL_BYTES"]
 
@@ -127,23 +129,6 @@ class RunOutcome:
 
 class RunConflict(RuntimeError):
     """Files in the run directory were produced with different settings."""
-
-
-def fingerprint_of(cfg: SweepConfig, spec: RunSpec, modes_fields: tuple[str, ...] | None = None) -> str:
-    """JSON string of everything that must match for a run directory to be reused: the
-    physics of the trajectory frame by frame, not its length (``run.steps`` and
-    ``run.until`` are left out, so a longer run continues a shorter one; see
-    :func:`fcsweep.sweep.length.same_physics`)."""
-    fields = modes_fields if modes_fields is not None else cfg.store.fields
-    return json.dumps(
-        {
-            "run_id": spec.run_id,
-            "seed": spec.seed,
-            "sample_every": cfg.run.sample_every,
-            "fields": list(fields),
-        },
-        sort_keys=True,
-    )
 
 
 # ------------------------------------------------------------------------- test hooks
@@ -277,41 +262,6 @@ def _parameters(cfg: SweepConfig, spec: RunSpec, fields, fingerprint: str) -> di
 # ---------------------------------------------------------------------------- run_one
 
 
-def _is_done(st: dict | None, traj: Path, fp: str) -> bool:
-    """Done with this physics (maybe shorter than wanted: :func:`extension_of`); raises
-    RunConflict if done with other settings."""
-    if not st or st.get("status") != schema.DONE or not traj.exists():
-        return False
-    done_fp = st.get("fingerprint")
-    if done_fp is None:  # status written without a fingerprint: ask the trajectory
-        try:
-            done_fp = read_parameters(traj).get("fingerprint")
-        except Exception:  # noqa: BLE001 - unreadable: recompute
-            return False
-    if not same_physics(done_fp, fp):
-        raise RunConflict(_conflict_message(traj, done_fp, fp))
-    return True
-
-
-def _conflict_message(path, have, want) -> str:
-    try:
-        a, b = json.loads(have), json.loads(want)
-        diff = ", ".join(f"{k} {a.get(k)} -> {b.get(k)}" for k in sorted(b) if a.get(k) != b.get(k)
-                         and k not in LENGTH_KEYS)
-    except (TypeError, ValueError):
-        diff = f"{have} -> {want}"
-    return (f"{path} was computed with other run settings ({diff}); use another output "
-            "directory (or --force to recompute it)")
-
-
-def _damage(rd: RunDirectory, n_frames: int) -> str | None:
-    """Problem of a done run's trajectory: a full checksum read unless the file still has
-    the size and mtime recorded when it was finished (``status --verify`` always reads)."""
-    if rd.unchanged_since_done():
-        return None
-    return rd.verify(n_frames)
-
-
 def run_one(
     cfg: SweepConfig,
     spec: RunSpec,
@@ -320,8 +270,10 @@ def run_one(
     stale_after: float = DEFAULT_STALE_AFTER,
     force: bool = False,
     stop: Callable[[], str | None] | None = None,
+    retry_failed: bool = True,
 ) -> RunOutcome:
-    """Compute (or resume, or skip) one run; never raises for a failing run.
+    """Compute (or resume, or skip) one run as :func:`fcsweep.sweep.lifecycle.assess`
+    decides; never raises for a failing run.
 
     Parameters
     ----------
@@ -333,6 +285,9 @@ def run_one(
         Heartbeat age (s) after which another host's lock is considered stale.
     force : bool
         Recompute even if the run is done (a held lock is still respected).
+    retry_failed : bool
+        Rerun a run that failed for a reason a relaunch does not fix (cause other than
+        "io"); if False it is reported failed without being touched.
     stop : callable, optional
         Returns the name of a requested stop (e.g. ``"SIGTERM"``) or ``None``; checked
         about every :data:`PIECE_SECONDS`.  Default: this process's signal flag
@@ -343,6 +298,9 @@ def run_one(
     RunOutcome
     """
     stop = stop or interrupt.reason
+    a = assess(cfg, spec, force=force, retry_failed=retry_failed, stale_after=stale_after)
+    if a.action == "failed":
+        return RunOutcome(spec.index, spec.run_id, "failed", f"{a.reason}; use --retry-failed")
     if stop():
         return RunOutcome(spec.index, spec.run_id, "interrupted", "not started")
     rd = RunDirectory(cfg.run_dir(spec.run_id), spec.run_id, spec.index, spec.params)
@@ -351,31 +309,24 @@ def run_one(
     except OSError as exc:
         return RunOutcome(spec.index, spec.run_id, "failed",
                           f"cannot create {rd.path}: {io_error_cause(exc) or exc}")
-    fp = fingerprint_of(cfg, spec)
-    damaged = None
-    try:
-        st = rd.status()
-        if not force and _is_done(st, rd.trajectory, fp) and extension_of(cfg.run, st) is None:
-            damaged = _damage(rd, frames_done(cfg.run, st))
-            if damaged is None:
-                return RunOutcome(spec.index, spec.run_id, "skipped", "already done", int(st.get("steps_done", 0)))
-    except RunConflict as exc:
-        return RunOutcome(spec.index, spec.run_id, "failed", str(exc))
+    early = _settled_outcome(spec, a)
+    if early is not None:
+        return early
     if not rd.acquire(stale_after):
         return RunOutcome(spec.index, spec.run_id, "locked", rd.held_by())
     t0 = time.time()
     try:
-        st = rd.status()  # re-check: another process may have finished (or repaired) it meanwhile
-        if not force and _is_done(st, rd.trajectory, fp) and extension_of(cfg.run, st) is None:
-            damaged = _damage(rd, frames_done(cfg.run, st))
-            if damaged is None:
-                return RunOutcome(spec.index, spec.run_id, "skipped", "already done", int(st.get("steps_done", 0)))
-        if damaged is not None:
-            rd.mark_corrupt(damaged)
-            rd.trajectory.unlink()
-        out = _compute(cfg, spec, rd, rd.status(), progress, force or damaged is not None, t0, stop)
-        if damaged is not None:
-            out.message = f"recomputed damaged trajectory ({damaged})" + (f"; {out.message}" if out.message else "")
+        # second look under the lock: another process may have finished (or repaired) it meanwhile
+        a = assess(cfg, spec, force=force, retry_failed=retry_failed, stale_after=stale_after, ours=True)
+        early = _settled_outcome(spec, a)
+        if early is not None:
+            return early
+        if a.damaged is not None:
+            rd.mark_corrupt(a.damaged)
+            rd.trajectory.unlink(missing_ok=True)
+        out = _compute(cfg, spec, rd, a.status, progress, force or a.damaged is not None, t0, stop)
+        if a.damaged is not None:
+            out.message = f"recomputed damaged trajectory ({a.damaged})" + (f"; {out.message}" if out.message else "")
         return out
     except Interrupted as it:
         prev = rd.status()
@@ -402,6 +353,18 @@ def run_one(
         return RunOutcome(spec.index, spec.run_id, "failed", message, at, time.time() - t0)
     finally:
         rd.release()
+
+
+def _settled_outcome(spec: RunSpec, a) -> RunOutcome | None:
+    """The outcome of a run the assessment settles without computing (skip, conflict,
+    failed earlier), else ``None``."""
+    if a.action == "skip":
+        return RunOutcome(spec.index, spec.run_id, "skipped", "already done", a.from_step)
+    if a.action == "blocked":
+        return RunOutcome(spec.index, spec.run_id, "failed", conflict_message(*a.conflict))
+    if a.action == "failed":
+        return RunOutcome(spec.index, spec.run_id, "failed", f"{a.reason}; use --retry-failed")
+    return None
 
 
 class _Pace:
@@ -433,19 +396,16 @@ def _reopen_for_extension(cfg, spec, rd: RunDirectory, par: dict, fp: str) -> st
     checkpoint; returns ``None`` on success, else why it cannot (then the run is
     recomputed from step 0, with the same bits, at full cost)."""
     done = int(par.get("steps_done", par.get("steps", -1)))
-    ck = load_checkpoint(rd.checkpoint)
-    if ck is None:
-        return "no final checkpoint"
-    meta = split_meta(ck)[1]
-    n = frame_count(rd.trajectory)
-    if int(meta.get("step", -1)) != done or int(meta.get("frames", -1)) != n or \
-            not same_physics(meta.get("fingerprint"), fp):
-        return f"final checkpoint (step {meta.get('step')}) does not match the trajectory ({done} steps)"
-    tmp = rd.path / f".{schema.TRAJECTORY_PARTIAL}.extend.tmp"
+    why = extension_blocker(rd.path, done, fp)
+    if why is not None:
+        return why
     ensure_free_space(rd.path, rd.trajectory.stat().st_size + SPACE_MARGIN, "reopening the trajectory")
-    repack(rd.trajectory, tmp)
-    set_attrs(tmp, schema.PARAMETERS, {"complete": 0, "stop_reason": ""})
-    os.replace(tmp, rd.partial)
+
+    def reopen(tmp: Path) -> None:
+        repack(rd.trajectory, tmp)
+        set_attrs(tmp, schema.PARAMETERS, {"complete": 0, "stop_reason": ""})
+
+    atomic_write(rd.partial, reopen)
     fsync_dir(rd.path)
     for name in (schema.ANALYSIS, schema.ANALYSIS_ERROR):  # they describe the shorter run
         (rd.path / name).unlink(missing_ok=True)
@@ -476,7 +436,7 @@ def _compute(cfg, spec, rd: RunDirectory, prev: dict, progress, force: bool, t0:
         try:
             par = read_parameters(traj)
             if not same_physics(par.get("fingerprint"), fp_any):
-                raise RunConflict(_conflict_message(traj, par.get("fingerprint"), fp_any))
+                raise RunConflict(conflict_message(traj, par.get("fingerprint"), fp_any))
             done = int(par.get("steps_done", par.get("steps", steps)))
             if verify_trajectory(traj, done // se + 1) is None:
                 ended = {"steps_done": done, "stop_reason": par.get("stop_reason") or STOP_STEPS,
@@ -518,7 +478,7 @@ def _compute(cfg, spec, rd: RunDirectory, prev: dict, progress, force: bool, t0:
     if ck is not None:
         state, meta = split_meta(ck)
         if not same_physics(meta.get("fingerprint"), fp_any):
-            raise RunConflict(_conflict_message(ckp, meta.get("fingerprint"), fp_any))
+            raise RunConflict(conflict_message(ckp, meta.get("fingerprint"), fp_any))
         try:
             n = frame_count(partial)
             if n < int(meta["frames"]):
@@ -668,10 +628,8 @@ def _compute(cfg, spec, rd: RunDirectory, prev: dict, progress, force: bool, t0:
         "steps_done": done, "steps": steps, "checkpoint_every": ce, "transient": cfg.run.transient,
         "until_json": _until_meta(cfg), "fingerprint": fp_any,
         "config_json": json.dumps(cfg.to_dict(), sort_keys=True)})
-    packed = rd.path / f".{schema.TRAJECTORY}.repack.tmp"
     ensure_free_space(rd.path, partial.stat().st_size + SPACE_MARGIN, "repacking the finished trajectory")
-    repack(partial, packed)
-    os.replace(packed, traj)
+    atomic_write(traj, lambda tmp: repack(partial, tmp))
     partial.unlink()
     seq_path(partial).unlink(missing_ok=True)  # live readers' write counter (io.h5md)
     fsync_dir(rd.path)

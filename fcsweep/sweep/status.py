@@ -17,10 +17,12 @@ from typing import Any
 from fcsweep.config import SweepConfig
 from fcsweep.io import schema
 from fcsweep.io.rundir import RunDirectory
+from fcsweep.io.sweepdir import run_state
 from fcsweep.sweep.length import extension_of, frames_done
+from fcsweep.sweep.lifecycle import fingerprint_of, settings_change
 
 __all__ = ["collect_status", "format_status", "summary_line", "cost_line", "cost_totals", "analysis_state",
-           "settings_change", "advice", "STATES"]
+           "settings_change", "advice", "left_line", "STATES", "LEGEND"]
 
 #: Displayed states; ``interrupted`` is a run stopped by a signal or a ``running`` status
 #: whose lock is gone or stale (the next ``fcsweep simulate`` resumes it from its
@@ -28,33 +30,38 @@ __all__ = ["collect_status", "format_status", "summary_line", "cost_line", "cost
 #: ``fcsweep simulate`` recomputes it).
 STATES = ("done", "running", "interrupted", "failed", "corrupt", "pending")
 
+#: What the less obvious columns of :func:`format_status` mean (printed under the table).
+LEGEND = ("projected: % of the run's cell-steps whose shape left the admissible set and was scaled back "
+          "(docs/model.md; above 25 % the run warns that dt is too large); stop: why a done run stopped "
+          "(steps: at run.steps; settled: run.until) or 'extend'")
+
 
 def collect_status(cfg: SweepConfig, analysis_settings: dict | None = None, *,
                    verify: bool = False) -> list[dict[str, Any]]:
     """One dict per run: index, run_id, label, state, steps_done, steps, projections,
-    wall_seconds, reason, host, analysis, outdated, stop_reason, extend (why a done run
-    will be extended by the next ``simulate``, else ``None``), check (the last
-    ``run.until`` verdict) and the cost keys of :data:`fcsweep.io.schema.COST_KEYS`.
+    projected (projections per cell-step done, or ``None``), wall_seconds, reason, host,
+    analysis, outdated, stop_reason, extend (why a done run will be extended by the next
+    ``simulate``, else ``None``), check (the last ``run.until`` verdict), the cost keys of
+    :data:`fcsweep.io.schema.COST_KEYS`, and cpu_left / cost_source: the estimated CPU
+    seconds the run still needs (:mod:`fcsweep.sweep.cost`, from this machine's cached
+    measurement, else the documented fallback; 0 for done and failed runs; with
+    ``run.until`` to the cap) and where its cost per cell-step comes from.
 
     ``analysis_settings``: the settings ``fcsweep analyze`` would use now (the caller
     knows them; this layer does not import the analysis); an analysis.h5 made with
     others is ``stale``.  Without them only the transient is compared. With ``verify``,
     every done run's trajectory is read in full (all checksums) and a damaged one is
     marked ``corrupt`` in its status file (unless a live process holds it)."""
-    from fcsweep.sweep.runner import fingerprint_of
-
     rows = []
     for spec in cfg.runs():
         rd = RunDirectory(cfg.run_dir(spec.run_id), spec.run_id, spec.index, spec.params)
-        state = rd.state()
-        st = rd.status()
-        if verify and state == schema.DONE:
-            problem = rd.verify(frames_done(cfg.run, st))
+        rs = run_state(rd.path)  # the state analyze, aggregate and simulate's life cycle name too
+        if verify and rs.state == schema.DONE:
+            problem = rd.verify(frames_done(cfg.run, rs.st))
             if problem is not None:
                 rd.mark_corrupt(problem)
-                state = schema.CORRUPT
-        st = rd.status()
-        lock = rd.live_lock()
+                rs = run_state(rd.path)
+        state, st, lock = rs.state, rs.st, rs.lock
         extend = extension_of(cfg.run, st) if state == schema.DONE else None
         rows.append(
             {
@@ -65,8 +72,11 @@ def collect_status(cfg: SweepConfig, analysis_settings: dict | None = None, *,
                 "steps_done": int(st.get("steps_done", 0)),
                 "steps": cfg.run.steps if extend else int(st.get("steps", cfg.run.steps)),
                 "projections": st.get("projections"),
+                "projected": (int(st["projections"]) / (int(spec.params["N"]) * int(st["steps_done"]))
+                              if st.get("projections") is not None and int(st.get("steps_done") or 0) > 0
+                              else None),
                 "wall_seconds": st.get("wall_seconds"),
-                "reason": st.get("reason", ""),
+                "reason": rs.reason if state == schema.CORRUPT else st.get("reason", ""),
                 "host": lock.get("host") if lock else st.get("host"),
                 "analysis": (analysis_state(rd.path, cfg.run.transient, analysis_settings)
                              if state == schema.DONE else ""),
@@ -78,7 +88,47 @@ def collect_status(cfg: SweepConfig, analysis_settings: dict | None = None, *,
                 **{k: st.get(k) for k in schema.COST_KEYS},
             }
         )
+    _add_time_left(cfg, rows)
     return rows
+
+
+def _add_time_left(cfg: SweepConfig, rows: list[dict[str, Any]]) -> None:
+    """Fill ``cpu_left`` and ``cost_source`` of every row (cached costs only: never times)."""
+    from fcsweep.sweep.bench import CHECKPOINT_CPU_S, COST_KEYS, RUN_CPU_S, setting_groups
+    from fcsweep.sweep.cost import cell_step_seconds, setting_points
+
+    specs = {s.index: s for s in cfg.runs()}
+    groups = setting_groups(cfg, list(specs.values()))
+    costs = {}
+    for r in rows:
+        spec = specs[r["index"]]
+        todo = r["state"] not in (schema.DONE, schema.FAILED) or bool(r.get("extend"))
+        start = 0 if r["state"] == schema.CORRUPT else r["steps_done"]
+        left = max(cfg.run.steps - start, 0) if todo else 0
+        r["cpu_left"], r["cost_source"] = 0.0, None
+        if not left:
+            continue
+        key = tuple(spec.params[k] for k in COST_KEYS)
+        if key not in costs:
+            costs[key] = cell_step_seconds(setting_points(groups[key]), measure=False)
+        c = costs[key]
+        checkpoints = -(-left // cfg.run.checkpoint_every)
+        r["cpu_left"] = RUN_CPU_S + CHECKPOINT_CPU_S * checkpoints + int(spec.params["N"]) * left * c.seconds
+        r["cost_source"] = c.describe()
+
+
+def left_line(rows: list[dict[str, Any]]) -> str:
+    """E.g. ``left: about 8.2 h of CPU for 36 run(s) (one core each; 0.85 us per cell-step
+    (measured earlier on this machine))``, or ``""`` when nothing is left."""
+    from fcsweep.sweep.progress import format_duration
+
+    todo = [r for r in rows if r.get("cpu_left")]
+    if not todo:
+        return ""
+    sources = sorted({r["cost_source"] for r in todo if r.get("cost_source")})
+    hint = "" if all("measured" in s for s in sources) else "; `fcsweep bench` measures it here"
+    return (f"left: about {format_duration(sum(r['cpu_left'] for r in todo))} of CPU for {len(todo)} run(s) "
+            f"(to run.steps; {', '.join(sources)}{hint})")
 
 
 def analysis_state(run_dir, transient: float, settings: dict | None = None) -> str:
@@ -103,17 +153,6 @@ def analysis_state(run_dir, transient: float, settings: dict | None = None) -> s
         return "yes" if used == settings else "stale"
     t = used.get("transient")
     return "stale" if t is not None and abs(float(t) - float(transient)) > 1e-12 else "yes"
-
-
-def settings_change(have: str | None, want: str) -> str:
-    """``steps 2000 -> 4000`` when a done run's fingerprint differs from the config's."""
-    if not have or have == want:
-        return ""
-    try:
-        a, b = json.loads(have), json.loads(want)
-    except (TypeError, ValueError):
-        return "other settings"
-    return ", ".join(f"{k} {a.get(k)} -> {b.get(k)}" for k in sorted(b) if a.get(k) != b.get(k))
 
 
 def summary_line(rows: list[dict[str, Any]]) -> str:
@@ -146,18 +185,18 @@ def cost_line(rows: list[dict[str, Any]]) -> str:
 
 def format_status(rows: list[dict[str, Any]], *, reasons: bool = True) -> str:
     """Fixed-width table with a progress column and a summary line."""
-    head = (f"{'idx':>4}  {'run_id':12}  {'state':11}  {'progress':>14}  {'stop':8}  {'proj':>6}  "
+    head = (f"{'idx':>4}  {'run_id':12}  {'state':11}  {'progress':>14}  {'stop':8}  {'projected':>9}  "
             f"{'wall[s]':>8}  {'cpu[s]':>8}  {'analysed':8}  parameters")
     lines = [head, "-" * len(head)]
     for r in rows:
         pct = 100.0 * r["steps_done"] / max(r["steps"], 1)
         prog = f"{pct:5.1f}% {_short(r['steps_done'])}"
-        proj = "" if r["projections"] is None else str(r["projections"])
+        proj = "" if r.get("projected") is None else f"{100 * r['projected']:.2f}%"
         wall = "" if r["wall_seconds"] is None else f"{float(r['wall_seconds']):.1f}"
         cpu = "" if r.get("cpu_seconds") is None else f"{float(r['cpu_seconds']):.1f}"
         stop = "extend" if r.get("extend") else (r.get("stop_reason") or "") if r["state"] == "done" else ""
         lines.append(
-            f"{r['index']:>4}  {r['run_id']:12}  {r['state']:11}  {prog:>14}  {stop:8}  {proj:>6}  {wall:>8}  "
+            f"{r['index']:>4}  {r['run_id']:12}  {r['state']:11}  {prog:>14}  {stop:8}  {proj:>9}  {wall:>8}  "
             f"{cpu:>8}  {r.get('analysis', ''):8}  {r['label']}"
         )
         if reasons and r["state"] in ("failed", "corrupt", "interrupted") and r["reason"]:
@@ -169,7 +208,11 @@ def format_status(rows: list[dict[str, Any]], *, reasons: bool = True) -> str:
         check = r.get("check") or {}
         if reasons and r["state"] in ("running", "interrupted") and check.get("unmet"):
             lines.append(f"{'':6}not settled at step {check.get('step')}: {'; '.join(check['unmet'])}")
+    lines.append(LEGEND)
     lines.append(cost_line(rows))
+    left = left_line(rows)
+    if left:
+        lines.append(left)
     lines.append(summary_line(rows))
     return "\n".join(lines)
 

@@ -1,0 +1,192 @@
+"""Measure the numbers the README and the config comments quote; write them to one place.
+
+Writes ``benchmarks/results/readme_numbers.json``: the demo's wall times, the size of the
+test suite, and the CPU cost of every ``configs/*.yaml`` from the cost model
+(:mod:`fcsweep.sweep.cost`), with the date and the machine's load.  The README quotes
+these numbers (``quotes``: a regex and the text it must find, checked by
+``tests/test_docs_code.py``) and each config carries a generated ``# cost:`` comment line.
+
+Usage:
+    python benchmarks/readme_numbers.py                 # everything (a few minutes)
+    python benchmarks/readme_numbers.py --only configs  # re-cost the configs and rewrite their cost lines
+    python benchmarks/readme_numbers.py --only demo --only tests
+    python benchmarks/readme_numbers.py --suite         # also time the default test suite (minutes)
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import re
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+OUT = ROOT / "benchmarks" / "results" / "readme_numbers.json"
+FCSWEEP = [sys.executable, "-m", "fcsweep.cli"]
+#: Configs that get no cost line: smoke.yaml must stay identical to the built-in demo
+#: (fcsweep/data/smoke.yaml), whose cost the demo timing above gives.
+NO_COST_LINE = ("smoke.yaml",)
+
+
+def _wall(args, cwd) -> float:
+    t0 = time.perf_counter()
+    subprocess.run(FCSWEEP + args, cwd=cwd, check=True, capture_output=True)
+    return time.perf_counter() - t0
+
+
+def measure_demo() -> dict:
+    """Wall seconds of ``fcsweep simulate`` (built-in demo, fresh directory, kernels cached)
+    and of ``analyze`` + ``aggregate`` + ``plot`` on it."""
+    with tempfile.TemporaryDirectory() as tmp:
+        sim = _wall(["simulate", "-q"], tmp)
+        ana = sum(_wall([c], tmp) for c in ("analyze", "aggregate", "plot"))
+    return {"demo_simulate_s": round(sim, 1), "demo_analysis_s": round(ana, 1)}
+
+
+def count_tests() -> dict:
+    """Tests the default ``python -m pytest`` selects (slow ones deselected) and in all."""
+    out = subprocess.run([sys.executable, "-m", "pytest", "--collect-only", "-q"], cwd=ROOT,
+                         capture_output=True, text=True).stdout
+    m = re.search(r"(\d+)(?:/(\d+))? tests? collected", out)
+    if not m:
+        raise RuntimeError(f"cannot read the test count from pytest:\n{out[-2000:]}")
+    selected, total = int(m.group(1)), int(m.group(2) or m.group(1))
+    return {"tests_default": selected, "tests_all": total}
+
+
+def time_suite() -> dict:
+    t0 = time.perf_counter()
+    subprocess.run([sys.executable, "-m", "pytest", "-q", "-x"], cwd=ROOT, check=True, capture_output=True)
+    return {"suite_wall_s": round(time.perf_counter() - t0), "suite_date": time.strftime("%Y-%m-%d")}
+
+
+def _cpu_text(seconds: float) -> str:
+    if seconds < 2 * 3600:
+        return f"~{seconds / 60:.2g} CPU-minutes"
+    if seconds < 48 * 3600:
+        return f"~{seconds / 3600:.2g} CPU-hours"
+    return f"~{seconds / 86400:.2g} CPU-days"
+
+
+def cost_configs(log=print) -> dict:
+    """Cost of every config (cost model; measured at one thread, cached) and its comment line."""
+    from fcsweep.config import load_config
+    from fcsweep.sweep.bench import StepCost, first_stop, run_cpu_seconds, setting_groups
+    from fcsweep.sweep.cost import cell_step_seconds, setting_points
+    from fcsweep.sweep.warmup import compile_kernels
+
+    compile_kernels(log)
+    out = {}
+    for path in sorted((ROOT / "configs").glob("*.yaml")):
+        if path.name in NO_COST_LINE:
+            continue
+        cfg = load_config(path)
+        run = cfg.run
+        work = work_min = cpu = cpu_min = 0.0
+        us = []
+        for key, specs in setting_groups(cfg).items():
+            c = cell_step_seconds(setting_points(specs), log=log)
+            sc = StepCost(c.rate, 1.0, c.source)
+            checkpoints = -(-run.steps // run.checkpoint_every)
+            least = first_stop(run)
+            for s in specs:
+                N = int(s.params["N"])
+                work += N * run.steps
+                work_min += N * least
+                cpu += run_cpu_seconds(s.params, run.steps, checkpoints, sc)
+                cpu_min += run_cpu_seconds(s.params, least, -(-least // run.checkpoint_every), sc)
+            us.append(f"{c.seconds * 1e6:.2g}")
+        rate = f"{'/'.join(dict.fromkeys(us))} us per cell-step at one thread per run"
+        if run.until:
+            text = (f"# cost: {work_min:.2g} to {work:.2g} cell-steps, {_cpu_text(cpu_min)} (every run settled "
+                    f"at its first check) to {_cpu_text(cpu)} (every run to the cap); {rate}")
+        else:
+            text = f"# cost: {work:.2g} cell-steps, {_cpu_text(cpu)} ({len(cfg.runs())} runs); {rate}"
+        out[path.name] = {"cell_steps": work, "cpu_seconds": cpu, "cell_steps_min": work_min if run.until else None,
+                          "cpu_seconds_min": cpu_min if run.until else None, "comment": text}
+        log(text + f"   <- {path.name}")
+    return out
+
+
+def write_cost_line(path: Path, line: str) -> None:
+    """Replace the ``# cost:`` line of a config, or add one at the end of its header comment."""
+    lines = path.read_text().splitlines(keepends=True)
+    for i, ln in enumerate(lines):
+        if ln.startswith("# cost:"):
+            lines[i] = line + "\n"
+            break
+    else:
+        i = 0
+        while i < len(lines) and lines[i].startswith("#"):
+            i += 1
+        lines.insert(i, line + "\n")
+    path.write_text("".join(lines))
+
+
+def _fmt_s(seconds: float) -> str:
+    return f"{seconds:.0f} s" if seconds >= 10 else f"{seconds:.1f} s"
+
+
+def quotes(data: dict) -> list[dict]:
+    """What the README says, as (regex with one group, the text it must read)."""
+    q = []
+    if "demo_simulate_s" in data:
+        q += [{"key": "demo_simulate_s", "pattern": r"fcsweep-demo \(about ([^)]*)\)",
+               "text": _fmt_s(data["demo_simulate_s"])},
+              {"key": "demo_simulate_s", "pattern": r"`fcsweep simulate` on the demo took\s+\*\*([^*]+)\*\*",
+               "text": _fmt_s(data["demo_simulate_s"])},
+              {"key": "demo_analysis_s", "pattern": r"`analyze` \+ `aggregate` \+\s+`plot` \*\*([^*]+)\*\*",
+               "text": _fmt_s(data["demo_analysis_s"])}]
+    if "tests_default" in data:
+        q += [{"key": "tests_default", "pattern": r"the test suite \((\d+) tests",
+               "text": str(data["tests_default"])},
+              {"key": "tests_default", "pattern": r"the default suite has\s+\*\*(\d+) tests\*\*",
+               "text": str(data["tests_default"])}]
+    if "suite_wall_s" in data:
+        m, s = divmod(int(data["suite_wall_s"]), 60)
+        q.append({"key": "suite_wall_s", "pattern": r"the default test suite took\s+\*\*([^*]+)\*\*",
+                  "text": f"{m} min {s} s"})
+    cfgs = data.get("configs", {})
+    if "phase.yaml" in cfgs:
+        q.append({"key": "configs/phase.yaml", "pattern": r"`configs/phase.yaml` \(binary\) takes\s+\*\*([^*]+)\*\*",
+                  "text": f"{cfgs['phase.yaml']['cpu_seconds'] / 3600:.2g} CPU-hours"})
+    if "paper_phase.yaml" in cfgs:
+        q.append({"key": "configs/paper_phase.yaml", "pattern": r"the phase diagram at paper scale\s+\*\*([^*]+)\*\*",
+                  "text": _cpu_text(cfgs["paper_phase.yaml"]["cpu_seconds"])})
+    return q
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--only", action="append", choices=["demo", "tests", "configs"],
+                    help="measure only these parts (repeatable); the others keep their values")
+    ap.add_argument("--suite", action="store_true", help="also time the default test suite")
+    a = ap.parse_args(argv)
+    parts = set(a.only or ["demo", "tests", "configs"])
+    data = json.loads(OUT.read_text()) if OUT.exists() else {}
+    if "demo" in parts:
+        data.update(measure_demo())
+    if "tests" in parts:
+        data.update(count_tests())
+    if a.suite:
+        data.update(time_suite())
+    if "configs" in parts:
+        data["configs"] = cost_configs()
+        for name, entry in data["configs"].items():
+            write_cost_line(ROOT / "configs" / name, entry["comment"])
+    data["measured"] = {"date": time.strftime("%Y-%m-%d %H:%M"), "parts": sorted(parts),
+                        "machine": f"{platform.machine()}, {os.cpu_count()} cores",
+                        "load_average": [round(x, 2) for x in os.getloadavg()]}
+    data["quotes"] = quotes(data)
+    OUT.write_text(json.dumps(data, indent=1, sort_keys=True) + "\n")
+    print(json.dumps({k: v for k, v in data.items() if k not in ("configs", "quotes")}, indent=1))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,148 @@
+"""One cost model for bench, dry run and status (:mod:`fcsweep.sweep.cost`).
+
+The estimate is CPU seconds per cell-step, timed at one numba thread on the process CPU
+clock (median of repeats) and cached per machine: repeated estimates must agree (the
+issue asked for 25 %; with the cache they are identical), ``bench`` and ``simulate
+--dry-run`` must quote the same sweep cost, and ``status`` the same cost per cell-step.
+No test asserts a speed: only agreement between estimates and the bookkeeping around them.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import warnings
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from fcsweep.cli import cli
+from fcsweep.config import load_config
+from fcsweep.sweep import cost
+from fcsweep.sweep.interrupt import interrupted_counts, interrupted_phrase
+from fcsweep.sweep.status import LEGEND, collect_status, format_status
+
+POINT = dict(N=64, eta=0.05, v0=0.03, Dr=0.1, seed=3, density=0.95, dt=0.005, modes=6, contour_points=40,
+             quadrature="binary")
+# Hours of CPU (nothing runs it): the estimate prints as "X.Y h", 2 s of start-up are noise.
+STEPS = 100_000_000
+CONFIG = ("output: out\nseed: 5\ngrid:\n  eta: [0.03, 0.1]\nmodel:\n  N: 64\n  v0: 0.03\n  Dr: 0.1\n"
+          f"  quadrature: binary\nrun:\n  steps: {STEPS}\n  sample_every: 100000\n  checkpoint_every: 10000000\n")
+_UNIT = {"s": 1.0, "min": 60.0, "h": 3600.0, "d": 86400.0}
+
+
+@pytest.fixture
+def cache_dir(tmp_path, monkeypatch):
+    d = tmp_path / "cost-cache"
+    monkeypatch.setenv(cost.CACHE_ENV, str(d))
+    return d
+
+
+def test_second_estimate_comes_from_the_cache_and_is_identical(cache_dir):
+    first = cost.cell_step_seconds([POINT])
+    assert first.source == "measured" and first.seconds > 0
+    files = list(cache_dir.glob("cost-*.json"))
+    assert len(files) == 1
+    again = cost.cell_step_seconds([POINT])
+    assert again.source == "cached" and again.seconds == first.seconds
+    # the seed does not change the cost: same entry
+    assert cost.cell_step_seconds([{**POINT, "seed": 99}]).seconds == first.seconds
+    # another machine (or fcsweep version, or kernel source) does not see the entry
+    other = {**cost.machine_fingerprint(), "cpu": "another CPU"}
+    real = cost.machine_fingerprint
+    try:
+        cost.machine_fingerprint = lambda: other
+        assert cost.cell_step_seconds([POINT], measure=False).source == "fallback"
+    finally:
+        cost.machine_fingerprint = real
+
+
+def test_measurement_without_cache_is_repeatable(monkeypatch):
+    """Two measurements (no cache): one thread, process CPU time, median of 5 blocks. The
+    issue's bar is 25 %; 1.5x here leaves room for a machine whose load changes the
+    caches' contents between the two, while the former probe's swing was 18x."""
+    monkeypatch.setenv(cost.CACHE_ENV, "off")
+    assert cost.cache_file() is None
+    a = cost.cell_step_seconds([POINT])
+    b = cost.cell_step_seconds([POINT])
+    assert a.source == b.source == "measured"
+    assert 1 / 1.5 < a.seconds / b.seconds < 1.5
+
+
+def test_fallback_is_the_documented_table(cache_dir):
+    c = cost.cell_step_seconds([POINT], measure=False)
+    assert c.source == "fallback" and c.seconds == pytest.approx(cost.FALLBACK_US["binary"] * 1e-6)
+    jacobi = {**POINT, "quadrature": "arc", "integrator": "contact-jacobi"}
+    assert cost.fallback_seconds(jacobi) == pytest.approx(cost.FALLBACK_US["arc"] * 1e-6 * 1.5)
+    assert cost.fallback_seconds({**POINT, "modes": 0}) == pytest.approx(cost.FALLBACK_US["disc"] * 1e-6)
+    assert not cache_dir.exists()  # nothing measured, nothing written
+
+
+def _estimate(output: str) -> tuple[float, float]:
+    m = re.search(r"estimated (\S+ \w+) of CPU and about (\S+ \w+) of wall", output)
+    assert m, output
+    return tuple(float(t.split()[0]) * _UNIT[t.split()[1]] for t in m.groups())
+
+
+def test_dry_runs_agree_with_each_other_and_with_bench(tmp_path, cache_dir, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "c.yaml").write_text(CONFIG)
+    runs = [CliRunner().invoke(cli, ["simulate", "c.yaml", "--dry-run"]) for _ in range(2)]
+    assert all(r.exit_code == 0 for r in runs), runs[0].output
+    (cpu1, wall1), (cpu2, wall2) = (_estimate(r.output) for r in runs)
+    assert "measured now" in runs[0].output and "measured earlier on this machine" in runs[1].output
+    assert cpu1 == cpu2 and wall1 == wall2  # the second reads the first's measurement
+    r = CliRunner().invoke(cli, ["bench", "c.yaml", "--json"])
+    assert r.exit_code == 0, r.output
+    bench = json.loads(r.output[r.output.index("{"):])
+    # bench measures afresh (same protocol): within the issue's 25 % of the dry run
+    assert bench["sweep_cpu_seconds"] == pytest.approx(cpu1, rel=0.25)
+    # and refreshes the cache: the next dry run quotes bench's number (printed to 0.1 h)
+    after, _ = _estimate(CliRunner().invoke(cli, ["simulate", "c.yaml", "--dry-run"]).output)
+    assert after == pytest.approx(bench["sweep_cpu_seconds"], abs=0.05 * 3600 + 2.0)
+    assert not (tmp_path / "out").exists()
+
+
+def test_status_reports_the_cpu_left_with_the_same_cost(tmp_path, cache_dir, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "c.yaml").write_text(CONFIG)
+    cfg = load_config(tmp_path / "c.yaml")
+    rows = collect_status(cfg)  # nothing cached: the documented fallback, never a timing
+    per_run = 64 * STEPS * cost.FALLBACK_US["binary"] * 1e-6
+    assert [r["cpu_left"] for r in rows] == pytest.approx([per_run] * 2, rel=1e-3)
+    assert "fcsweep bench" in format_status(rows).splitlines()[-2]
+    points = cost.setting_points(cfg.runs())
+    c = cost.cell_step_seconds(points)  # measured and cached, as a dry run or bench would
+    rows = collect_status(cfg)
+    assert sum(r["cpu_left"] for r in rows) == pytest.approx(2 * 64 * STEPS * c.seconds, rel=1e-3)
+    text = format_status(rows)
+    assert "left: about" in text and "measured earlier on this machine" in text
+    assert LEGEND in text and "projected" in text.splitlines()[0]
+
+
+def test_interrupt_counts_cannot_contradict():
+    """The summary line and the stop line quote one phrase: runs stopped mid-run (each
+    checkpointed) and runs not started because the stop came first."""
+    o = [SimpleNamespace(outcome="interrupted", message="stopped at step 300 (SIGINT)"),
+         SimpleNamespace(outcome="interrupted", message="not started"),
+         SimpleNamespace(outcome="done", message="")]
+    assert interrupted_counts(o) == (1, 1)
+    assert interrupted_phrase(o) == "1 stopped and checkpointed, 1 not started"
+    assert interrupted_phrase(o[2:]) == ""
+
+
+def test_numpy_twin_warns_that_it_is_slow_above_256_cells():
+    from fcsweep.model import rates
+
+    def call(N):
+        z = np.zeros((N, 5))
+        with pytest.raises(ValueError):  # a bad rule: stops right after the size check
+            rates(np.zeros((N, 2)), np.zeros(N), z, z, eta=0.03, v0=0.06, quadrature="none")
+
+    with pytest.warns(UserWarning, match="slow numpy reference"):
+        call(257)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        call(256)
