@@ -38,7 +38,7 @@ def test_demo_runs_into_fcsweep_demo(demo_dir, monkeypatch):
     assert sorted(os.listdir(demo_dir)) == ["fcsweep-demo"]
     for s in cfg.runs():
         with h5py.File(demo_dir / "fcsweep-demo" / "runs" / s.run_id / "trajectory.h5", "r") as f:
-            assert f["particles/cells/position/value"].shape == (41, 36, 2)
+            assert f["particles/cells/position/value"].shape == (251, 64, 2)
     r = CliRunner().invoke(cli, ["status"])
     assert r.exit_code == 0 and "4 runs: 4 done" in r.output
 
@@ -51,7 +51,10 @@ def test_demo_analyze_aggregate_plot(demo_dir, monkeypatch, tmp_path):
     assert r.exit_code == 0, r.output
     r = CliRunner().invoke(cli, ["aggregate"])
     assert r.exit_code == 0, r.output
-    assert Path(r.output.strip().splitlines()[-1]).exists()
+    assert (demo_dir / "fcsweep-demo" / "phase_diagram.nc").exists()
+    # the demo answers: a solid, a fluid and a soft fluid, decided, one line per point
+    for word in ("solid (P = ", "eta=0.3 v0=0.2 N=64: fluid (P = ", "soft-fluid (P = "):
+        assert word in r.output, r.output
     r = CliRunner().invoke(cli, ["plot", "--outdir", str(tmp_path / "figs")])
     assert r.exit_code == 0, r.output
     assert any((tmp_path / "figs").iterdir())

@@ -136,7 +136,7 @@ def test_movie_of_a_tiny_trajectory(done, tmp_path):
     assert r.exit_code == 0, r.output
     reader = iio.get_reader(out)
     frames = sum(1 for _ in reader)
-    assert frames == 5  # 41 recorded frames, every 10th
+    assert frames == 26  # 251 recorded frames, every 10th
     h, w = reader.get_data(0).shape[:2]
     assert h % 16 == 0 and w % 16 == 0  # padded for H.264
     r = invoke("movie", "0", SMOKE, "-o", tmp_path / "empty")
