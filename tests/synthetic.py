@@ -63,3 +63,28 @@ def collective_positions(n_side, n_frames, *, modes=4, amp_step=0.3, noise=0.02,
     own = np.cumsum(rng.normal(scale=noise, size=(n_frames, N, 2)), axis=0)
     disp = np.einsum("tm,nm,md->tnd", A, shape, e)
     return X[None] + disp + own
+
+
+def triangular_crystal(n, jitter, rng, a=1.0):
+    """n x n triangular lattice (spacing a) with independent Gaussian jitter (sd jitter * a),
+    wrapped into its periodic box; returns (positions, box)."""
+    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    pos = np.stack([((i + 0.5 * (j % 2)) * a).ravel(), (j * a * np.sqrt(3) / 2).ravel()], 1)
+    box = (n * a, n * a * np.sqrt(3) / 2)
+    return np.mod(pos + rng.normal(scale=jitter * a, size=pos.shape), box), box
+
+
+def random_sequential_discs(n, area_fraction, rng, radius=0.5):
+    """Random sequential addition of n non-overlapping discs in a periodic square box at the
+    given area fraction (below the jamming limit 0.547); returns (positions, box)."""
+    L = np.sqrt(n * np.pi * radius ** 2 / area_fraction)
+    pts = np.empty((0, 2))
+    while len(pts) < n:
+        for p in rng.uniform(0, L, (256, 2)):
+            if len(pts) == n:
+                break
+            d = p - pts
+            d -= L * np.round(d / L)
+            if len(pts) == 0 or np.min(np.einsum("ij,ij->i", d, d)) >= 4 * radius ** 2:
+                pts = np.vstack([pts, p])
+    return pts, (L, L)

@@ -176,7 +176,7 @@ def test_dataset_round_trip_and_contents(sweep, tmp_path):
 def test_figures_are_written(sweep, tmp_path):
     cfg, runs, _ = sweep
     paths = plot_sweep(cfg, outdir=tmp_path / "fig")
-    assert len(paths) == 16  # 8 figures x (PNG, PDF)
+    assert len(paths) == 18  # 9 figures (the KTHNY summary included) x (PNG, PDF)
     paths += plot_sweep(cfg, run=0, frame=-1, outdir=tmp_path / "fig")
     for p in paths:
         assert p.exists() and p.stat().st_size > 1000, p

@@ -36,11 +36,11 @@ import xarray as xr
 from scipy.special import ndtr
 
 from fcsweep import __version__
-from fcsweep.analysis.phase import (MIN_CONFIDENCE, PERCOLATION_FLAGS, PHASE_FLAGS, classify_percolation,
-                                    classify_phase, flag_attrs)
+from fcsweep.analysis.phase import (KTHNY_FLAGS, KTHNY_UNDETERMINED, MIN_CONFIDENCE, PERCOLATION_FLAGS, PHASE_FLAGS,
+                                    classify_percolation, classify_phase, flag_attrs)
 from fcsweep.analysis.cage import BOUND_FACTOR
 from fcsweep.analysis.diffusion import D_EFF_SOLID
-from fcsweep.analysis.percolation import fisher_observables, fss_collapse
+from fcsweep.analysis.percolation import FSS_BOOTSTRAP, fisher_observables, fss_collapse
 from fcsweep.analysis.stats import combine
 from fcsweep.io.sweepdir import run_path, run_state
 from fcsweep.analysis.pipeline import (ANALYSIS_ERROR_FILE, ANALYSIS_FILE, CURVES, DATASET_FILE, _read_status,
@@ -123,6 +123,20 @@ META = {
     "phase_reason": ("why the phase label is what it is", ""),
     "percolated": ("defect percolation label: rho_d > 1/2; undetermined below the required confidence", "1"),
     "percolated_confidence": ("probability of the most probable percolation label", "1"),
+    "kthny": ("KTHNY label from the decay of G_r(dx, 0) peaks and G6(r): solid (G_r algebraic, eta_T <= 1/3), "
+              "hexatic (G_r short-ranged, G6 algebraic with eta_6 <= 1/4), liquid (both short-ranged)", "1"),
+    "kthny_confidence": ("probability of the KTHNY label given the fit errors", "1"),
+    "kthny_reason": ("why the KTHNY label is what it is", ""),
+    "kthny_point": ("KTHNY label common to the replicates (undetermined when they differ)", "1"),
+    "kthny_point_confidence": ("lowest replicate confidence of kthny_point", "1"),
+    "eta_T": ("algebraic decay exponent of the G_r(dx, 0) - 1 peak envelope", "1"),
+    "eta_T_err": ("1-sigma error of eta_T", "1"),
+    "xi_T": ("exponential decay length of the G_r(dx, 0) - 1 peak envelope (units of R0)", "1"),
+    "xi_T_err": ("1-sigma error of xi_T", "1"),
+    "eta_6": ("algebraic decay exponent of G6(r)", "1"),
+    "eta_6_err": ("1-sigma error of eta_6", "1"),
+    "xi_6": ("exponential decay length of G6(r) (units of R0)", "1"),
+    "xi_6_err": ("1-sigma error of xi_6", "1"),
     "percolated_reason": ("why the percolation label is what it is", ""),
     "phase_point": ("phase label of the replicate means", "1"),
     "phase_point_confidence": ("probability of phase_point given the replicate-mean errors", "1"),
@@ -156,12 +170,14 @@ SCALAR_VARS = ("D_eff", "D_eff_err", "D_eff_err_time", "D_eff_err_cells", "D_eff
                "largest_cluster_fraction", "largest_cluster_fraction_err", "psi6", "psi6_err",
                "n_frames", "t_start", "t_end", "t_equilibrated", "phase_confidence", "percolated_confidence",
                "D_eff_g_cells", "neighbour_spacing", "cage_lag", "cage_msd_ratio", "cage_msd_ratio_err",
-               "cage_broken_probability", "cage_d_eff_bound", "F_s_window", "tau_alpha")
+               "cage_broken_probability", "cage_d_eff_bound", "F_s_window", "tau_alpha",
+               "eta_T", "eta_T_err", "xi_T", "xi_T_err", "eta_6", "eta_6_err", "xi_6", "xi_6_err", "kthny_confidence")
 #: Observables reduced over replicates (``<name>_rmean``, ``_rmean_err``, ``_rchi2``).
 REPLICATE_VARS = ("D_eff", "q_mean", "q_frac_above", "rho_d", "largest_cluster_fraction", "psi6",
                   "cage_msd_ratio")
 #: Per-run strings, written as CF character arrays.
-STRING_VARS = ("run_id", "seed", "phase_reason", "percolated_reason", "tau_fisher_reason", "fss_reason")
+STRING_VARS = ("run_id", "seed", "phase_reason", "percolated_reason", "kthny_reason", "tau_fisher_reason",
+               "fss_reason")
 
 
 def _key(x):
@@ -276,7 +292,7 @@ def build_dataset(config) -> xr.Dataset:
             continue
         status[loc] = 0
         settings = settings or res["settings"]
-        for v in ("phase_reason", "percolated_reason"):
+        for v in ("phase_reason", "percolated_reason", "kthny_reason"):
             strings[v][loc] = str(res["scalars"].get(v, ""))
         try:
             commit = json.loads(res["attrs"].get("parameters_json", "{}")).get("git_commit")
@@ -305,6 +321,7 @@ def build_dataset(config) -> xr.Dataset:
     data = {v: np.full(shape, np.nan) for v in SCALAR_VARS}
     data["n_structure_frames"] = np.full(shape, np.nan)
     phase = np.full(shape, -1, dtype=np.int8)
+    kth = np.full(shape, -1, dtype=np.int8)
     perc = np.full(shape, -1, dtype=np.int8)
     curves = {n: np.full(shape + (len(curve_coords[c]),), np.nan) for n, c in CURVES.items()}
     for loc, res in entries:
@@ -315,6 +332,7 @@ def build_dataset(config) -> xr.Dataset:
         nf = _frames_after_transient(sc)
         data["n_structure_frames"][loc] = min(nf, sset.get("structure_frames", nf)) if np.isfinite(nf) else np.nan
         phase[loc] = int(sc["phase"]) if np.isfinite(sc.get("phase", np.nan)) else -1
+        kth[loc] = int(sc["kthny"]) if np.isfinite(sc.get("kthny", np.nan)) else -1
         perc[loc] = int(sc["percolated"]) if np.isfinite(sc.get("percolated", np.nan)) else -1
         for n, c in CURVES.items():
             if n not in res["curves"]:
@@ -340,6 +358,7 @@ def build_dataset(config) -> xr.Dataset:
     for n, c in CURVES.items():
         ds[n] = (dims + [c], curves[n], _attrs(n))
     ds["phase"] = (dims, phase, {**_attrs("phase"), **flag_attrs(PHASE_FLAGS)})
+    ds["kthny"] = (dims, kth, {**_attrs("kthny"), **flag_attrs(KTHNY_FLAGS)})
     ds["percolated"] = (dims, perc, {**_attrs("percolated"), **flag_attrs(PERCOLATION_FLAGS)})
     ds["status"] = (dims, status, {**_attrs("status"), **flag_attrs(STATUS_FLAGS)})
     for v, arr in strings.items():
@@ -433,8 +452,23 @@ def _reduce_replicates(ds: xr.Dataset, settings) -> None:
     ds["phase_point_confidence"] = (dims, pconf, _attrs("phase_point_confidence"))
     ds["percolated_point"] = (dims, perc, {**_attrs("percolated_point"), **flag_attrs(PERCOLATION_FLAGS)})
     ds["percolated_point_confidence"] = (dims, cconf, _attrs("percolated_point_confidence"))
+    _kthny_point(ds)
     _fisher_exponents(ds)
     _fss(ds)
+
+
+def _kthny_point(ds: xr.Dataset) -> None:
+    """``kthny_point``: the replicates' common KTHNY label, its lowest confidence, or
+    undetermined when they differ or one is undetermined (in place)."""
+    k = ds["kthny"].transpose(..., "replicate").values
+    c = ds["kthny_confidence"].transpose(..., "replicate").values
+    same = np.all(k == k[..., :1], axis=-1) & np.all(k >= 0, axis=-1)
+    point = np.where(same, k[..., 0], np.where(np.any(k >= 0, axis=-1), KTHNY_UNDETERMINED, -1)).astype(np.int8)
+    conf = np.where(same, np.nanmin(np.where(np.isfinite(c), c, np.inf), axis=-1), np.nan)
+    conf = np.where(np.isinf(conf), np.nan, conf)
+    dims = [d for d in ds["kthny"].dims if d != "replicate"]
+    ds["kthny_point"] = (dims, point, {**_attrs("kthny_point"), **flag_attrs(KTHNY_FLAGS)})
+    ds["kthny_point_confidence"] = (dims, conf, _attrs("kthny_point_confidence"))
 
 
 def _fisher_exponents(ds: xr.Dataset) -> None:
@@ -467,7 +501,7 @@ def _fisher_exponents(ds: xr.Dataset) -> None:
 FSS_VARS = ("fss_rho_c", "fss_rho_c_err", "fss_nu", "fss_nu_err", "fss_beta", "fss_beta_err", "fss_quality")
 
 
-def _fss(ds: xr.Dataset) -> None:
+def _fss(ds: xr.Dataset, n_bootstrap: int = FSS_BOOTSTRAP) -> None:
     """Finite-size collapse of the largest defect cluster, one per v0 (in place).
 
     Only for datasets with two or more N.  Each slice of the dimensions other than
@@ -494,7 +528,7 @@ def _fss(ds: xr.Dataset) -> None:
         if np.unique(n[ok]).size < 2:
             why[idx] = "fewer than two N with finite rho_d and largest_cluster_fraction"
             continue
-        fit = fss_collapse(r[ok], p[ok], n[ok], np.where(np.isfinite(e[ok]), e[ok], 0.0))
+        fit = fss_collapse(r[ok], p[ok], n[ok], np.where(np.isfinite(e[ok]), e[ok], 0.0), n_bootstrap=n_bootstrap)
         out[idx] = [fit[k.removeprefix("fss_")] for k in FSS_VARS]
         why[idx] = fit.reason
     for k, name in enumerate(FSS_VARS):

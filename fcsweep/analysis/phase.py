@@ -249,3 +249,14 @@ def flag_attrs(flags: dict) -> dict:
     keys = sorted(flags)
     return {"flag_values": np.array(keys, dtype=np.int8),
             "flag_meanings": " ".join(flags[k] for k in keys)}
+
+
+KTHNY_UNKNOWN, KTHNY_SOLID, KTHNY_HEXATIC, KTHNY_LIQUID, KTHNY_UNDETERMINED = -1, 0, 1, 2, 3
+#: Codes and CF ``flag_meanings`` of the KTHNY label (:mod:`fcsweep.analysis.kthny`).
+KTHNY_FLAGS = {KTHNY_UNKNOWN: "unknown", KTHNY_SOLID: "solid", KTHNY_HEXATIC: "hexatic", KTHNY_LIQUID: "liquid",
+               KTHNY_UNDETERMINED: "undetermined"}
+
+
+def kthny_name(code: int) -> str:
+    """Word of a KTHNY label code ('solid', 'hexatic', 'liquid', 'undetermined', 'unknown')."""
+    return KTHNY_FLAGS.get(int(code), "unknown")

@@ -44,7 +44,7 @@ import h5py
 import numpy as np
 
 from fcsweep import __version__
-from fcsweep.analysis import cage, diffusion, order, shapes, voronoi
+from fcsweep.analysis import cage, diffusion, kthny, order, shapes, voronoi
 from fcsweep.analysis.msd import log_lag_indices, msd_curve
 from fcsweep.analysis.phase import MIN_CONFIDENCE, classify_percolation, classify_phase, phase_name
 from fcsweep.analysis.stats import time_average
@@ -89,8 +89,12 @@ SCALARS = ("D_s", "D_s_err", "D0", "D_eff", "D_eff_err", "D_eff_err_time", "D_ef
            "largest_cluster_fraction", "largest_cluster_fraction_err", "psi6", "psi6_err",
            "n_frames", "t_start", "t_end", "t_equilibrated",
            "phase", "phase_confidence", "percolated", "percolated_confidence")
+#: KTHNY fit results (:func:`fcsweep.analysis.kthny.kthny_fits`) stored per run.
+KTHNY_FIT_KEYS = ("eta_T", "eta_T_err", "xi_T", "xi_T_err", "eta_6", "eta_6_err", "xi_6", "xi_6_err")
+KTHNY_SCALARS = KTHNY_FIT_KEYS + ("kthny", "kthny_confidence")
+SCALARS = SCALARS + KTHNY_SCALARS
 #: Label explanations stored as string attributes of ``/observables``.
-REASONS = ("phase_reason", "percolated_reason")
+REASONS = ("phase_reason", "percolated_reason", "kthny_reason")
 #: Curves stored as datasets of ``/curves``: name -> coordinate dataset name.
 CURVES = {"msd": "lag_time", "q_hist": "q_bin", "G6": "r", "Gr": "dx",
           "cluster_size_distribution": "cluster_size", "F_s": "cage_lag_time", "cage_msd": "cage_lag_time"}
@@ -227,6 +231,10 @@ def compute_observables(traj, settings: dict, *, curves: bool = True,
             warnings.simplefilter("ignore", RuntimeWarning)  # bins without pairs in every frame
             cv["G6"] = (r, np.nanmean(np.asarray(g6s), axis=0) if r.size else r.copy())
             cv["Gr"] = (dxs, np.mean(np.asarray(grs), axis=0))
+        sc.update(_kthny(r, np.asarray(g6s), dxs, np.asarray(grs), N, float(settings["label_confidence"]),
+                         cage.neighbour_spacing(N, boxr)))
+    else:
+        sc.update(_kthny(None, None, None, None, N, float(settings["label_confidence"]), np.nan))
 
     # --- MSD (all frames, for the curve) and D_eff (from the equilibrated frames)
     eq = frames[frames >= max(starts)]
@@ -288,6 +296,32 @@ def compute_observables(traj, settings: dict, *, curves: bool = True,
     extra = {"n_sides_counts": ds["n_sides_counts"], "frames": frames,
              "structure_frames": vf, "shape_frames": sf}
     return sc, cv, extra
+
+
+def _frame_mean(curves: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Mean over frames of per-frame curves and its standard error (NaN with one frame)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # bins without pairs in some frames
+        m = np.nanmean(curves, axis=0)
+        n = np.sum(np.isfinite(curves), axis=0)
+        e = np.nanstd(curves, axis=0, ddof=1) / np.sqrt(np.maximum(n, 1)) if curves.shape[0] > 1 else np.full(m.shape, np.nan)
+    return m, e
+
+
+def _kthny(r, g6_frames, dx, gr_frames, n_cells: int, confidence: float, spacing: float) -> dict:
+    """KTHNY fits and label from the per-frame G6(r) and G_r(dx, 0) (NaN without curves)."""
+    out = {k: np.nan for k in KTHNY_SCALARS}
+    out["kthny_reason"] = "correlations not computed"
+    if r is None or g6_frames.size == 0 or gr_frames.size == 0:
+        return out
+    G6, G6e = _frame_mean(g6_frames)
+    Gr, Gre = _frame_mean(gr_frames)
+    fits = kthny.kthny_fits(r, G6, dx, Gr, G6_err=G6e, Gr_err=Gre, spacing=spacing)
+    lab = kthny.classify_kthny(fits, min_confidence=confidence, n_cells=n_cells)
+    for k in KTHNY_FIT_KEYS:
+        out[k] = float(fits.get(k, np.nan))
+    out.update(kthny=float(lab.code), kthny_confidence=lab.confidence, kthny_reason=lab.reason)
+    return out
 
 
 def solid_test_estimate(sc: dict) -> tuple[float, float]:

@@ -1,0 +1,230 @@
+"""KTHNY (2-D melting) classification from G_r(dx, 0) and G6(r).
+
+KTHNY theory tells the three phases of a 2-D system by how its correlations decay:
+
+- **solid**: translational order quasi-long-ranged, the peaks of ``G_r(dx, 0) - 1``
+  decaying algebraically with exponent ``eta_T <= 1/3`` (1/3 at melting); bond order
+  long-ranged, ``G6(r)`` tending to a constant;
+- **hexatic**: translational order short-ranged (exponential envelope), bond order
+  quasi-long-ranged, ``G6 ~ r^(-eta_6)`` with ``eta_6 <= 1/4``;
+- **liquid**: both short-ranged.
+
+:func:`kthny_fits` fits the peak envelope of ``G_r - 1`` and ``G6`` to ``A r^(-eta)`` and
+``A exp(-r / xi)`` (weighted least squares of the logarithm over the distances where the
+curve stands clear of its noise, up to half the box), with 1-sigma errors from the fit
+(scaled up by ``sqrt(chi2 / dof)`` when the points scatter more than their errors).
+:func:`classify_kthny` decides with the algebraic exponents against the KTHNY bounds:
+an exponential decay over the fitted range reads as a large effective exponent, so
+
+    P(solid)   = P(eta_T < 1/3) P(eta_6 < 1/4),
+    P(hexatic) = P(eta_T > 1/3) P(eta_6 < 1/4),
+    P(liquid)  = P(eta_6 > 1/4),
+
+each Gaussian in the fitted exponent; a curve that falls into its noise within half the
+fitted range counts as short-ranged. The label is the most probable one when it reaches
+the confidence, else undetermined. Distances must reach well beyond the first few
+shells, so a decision needs at least ``MIN_CELLS`` cells (half the box is then about 16
+neighbour spacings; at N = 256 it is 8, where the envelope of a crystal and of a dense
+liquid differ by less than their scatter over one frame).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.signal import find_peaks
+from scipy.special import ndtr
+
+from fcsweep.analysis.phase import (KTHNY_HEXATIC, KTHNY_LIQUID, KTHNY_SOLID, KTHNY_UNDETERMINED, KTHNY_UNKNOWN,
+                                    MIN_CONFIDENCE, Label, kthny_name)
+
+#: KTHNY bound on the translational exponent (at melting).
+ETA_T_MAX = 1.0 / 3.0
+#: KTHNY bound on the bond-orientational exponent (at the hexatic-liquid transition).
+ETA_6_MAX = 0.25
+#: Fewest cells for a decision (fits need distances up to half the box).
+MIN_CELLS = 1000
+#: Fewest points a decay fit needs.
+MIN_POINTS = 3
+
+
+def peak_envelope(dx, Gr, *, spacing: float | None = None):
+    """Local maxima of ``G_r(dx, 0)`` beyond the core, one per lattice period.
+
+    Parameters
+    ----------
+    dx, Gr : ndarray
+        Bin centres and the cut ``G_r(dx, 0)`` (NaN bins are ignored).
+    spacing : float, optional
+        Neighbour spacing; default: the first maximum that reaches half the largest
+        excess ``max(G_r) - 1``.
+
+    Returns
+    -------
+    positions, heights : ndarray
+        Peak positions and ``G_r - 1`` there, from the first neighbour shell on.
+    """
+    x = np.asarray(dx, dtype=float)
+    y = np.nan_to_num(np.asarray(Gr, dtype=float), nan=0.0)
+    if x.size < 3:
+        return np.zeros(0), np.zeros(0)
+    h = float(x[1] - x[0])
+    if spacing:
+        a = float(spacing)
+    else:  # the first maximum that reaches half the largest excess
+        top, _ = find_peaks(y, height=1.0 + 0.5 * (np.max(y) - 1.0))
+        a = float(x[top[0]]) if top.size else float(x[int(np.argmax(y))])
+    idx, _ = find_peaks(y, distance=max(1, int(0.7 * a / h)))
+    idx = idx[x[idx] >= 0.8 * a]
+    return x[idx], y[idx] - 1.0
+
+
+def _log_fit(X, y, e):
+    """Weighted least squares of ``log y = c0 + c1 X``: coefficients, their errors, chi2/dof."""
+    w = 1.0 / np.maximum(e / y, 1e-6)
+    A = np.stack([np.ones_like(X), X], axis=1) * w[:, None]
+    b = np.log(y) * w
+    coef, *_ = np.linalg.lstsq(A, b, rcond=None)
+    dof = max(X.size - 2, 1)
+    chi2 = float(np.sum((A @ coef - b) ** 2)) / dof
+    cov = np.linalg.inv(A.T @ A) * max(chi2, 1.0)
+    return coef, np.sqrt(np.diag(cov)), chi2
+
+
+def fit_decays(r, y, y_err=None, *, r_min: float = 0.0, r_max: float | None = None) -> dict:
+    """Fit ``y = A r^(-eta)`` and ``y = A exp(-r / xi)`` over the points clear of the noise.
+
+    Points with ``r_min <= r <= r_max`` are used from the first on, up to the first that is
+    not positive or not 2 errors above zero (the curve has sunk into its noise).  Without
+    ``y_err`` the errors are taken from the scatter about each fit (equal weights).
+
+    Returns
+    -------
+    dict
+        ``eta``, ``eta_err``, ``xi``, ``xi_err``, ``chi2_power``, ``chi2_exp`` (per degree of
+        freedom, weighted), ``n`` (points used), ``r_end`` (last distance used) and
+        ``sunk`` (True when the curve fell into its noise before ``r_max / 2``).
+    """
+    r = np.asarray(r, dtype=float)
+    y = np.asarray(y, dtype=float)
+    e = np.full(y.shape, np.nan) if y_err is None else np.asarray(y_err, dtype=float)
+    r_max = float(np.nanmax(r)) if r_max is None else float(r_max)
+    keep = (r >= r_min) & (r <= r_max) & np.isfinite(y)
+    r, y, e = r[keep], y[keep], e[keep]
+    clear = (y > 0) & ~(np.isfinite(e) & (y < 2.0 * e))
+    stop = int(np.argmin(clear)) if not clear.all() else y.size
+    r, y, e = r[:stop], y[:stop], e[:stop]
+    nan = float("nan")
+    out = {"eta": nan, "eta_err": nan, "xi": nan, "xi_err": nan, "chi2_power": nan, "chi2_exp": nan,
+           "n": int(r.size), "r_end": float(r[-1]) if r.size else nan,
+           "sunk": bool(stop < keep.sum() and (r[-1] if r.size else 0.0) < 0.5 * r_max)}
+    if r.size < MIN_POINTS or np.any(r <= 0):
+        return out
+    if not np.all(np.isfinite(e) & (e > 0)):
+        e = np.full(y.shape, 1.0) * y  # equal weights in log space; errors from the residuals
+        e_from_fit = True
+    else:
+        e_from_fit = False
+    (c, ce, chi_p) = _log_fit(np.log(r), y, e)
+    (d, de, chi_e) = _log_fit(r, y, e)
+    if e_from_fit:  # unit weights: the scale is the residual scatter itself
+        ce = ce / np.sqrt(max(chi_p, 1.0)) * np.sqrt(chi_p)
+        de = de / np.sqrt(max(chi_e, 1.0)) * np.sqrt(chi_e)
+    out.update(eta=float(-c[1]), eta_err=float(ce[1]), chi2_power=chi_p, chi2_exp=chi_e)
+    if d[1] < 0:
+        xi = -1.0 / d[1]
+        out.update(xi=float(xi), xi_err=float(de[1] * xi * xi))
+    else:
+        out.update(xi=float("inf"), xi_err=float("nan"))
+    return out
+
+
+def kthny_fits(r, G6, dx, Gr, *, G6_err=None, Gr_err=None, spacing: float | None = None) -> dict:
+    """Decay fits of the ``G_r(dx, 0) - 1`` peak envelope and of ``G6(r)``.
+
+    Parameters
+    ----------
+    r, G6 : ndarray
+        ``G6`` binned by pair distance (:func:`fcsweep.analysis.order.g6`), frame mean.
+    dx, Gr : ndarray
+        ``G_r(dx, 0)`` (:func:`fcsweep.analysis.order.gr_cut`), frame mean.
+    G6_err, Gr_err : ndarray, optional
+        Standard errors of the frame means (NaN or None: from the fit residuals).
+    spacing : float, optional
+        Neighbour spacing (default: see :func:`peak_envelope`).
+
+    Returns
+    -------
+    dict
+        ``eta_T``, ``eta_T_err``, ``xi_T``, ``xi_T_err``, ``eta_6``, ``eta_6_err``,
+        ``xi_6``, ``xi_6_err``, plus ``T_points``, ``T_sunk``, ``T_r_end``, ``six_points``,
+        ``six_sunk``, ``six_r_end`` and ``r_max`` (the fitted range).
+    """
+    dx = np.asarray(dx, dtype=float)
+    Gr = np.asarray(Gr, dtype=float)
+    pos, hgt = peak_envelope(dx, Gr, spacing=spacing)
+    if Gr_err is not None and pos.size:
+        he = np.interp(pos, dx, np.nan_to_num(np.asarray(Gr_err, dtype=float), nan=np.nan))
+    else:
+        he = None
+    r_max = float(np.nanmax(dx)) if dx.size else float("nan")
+    a = pos[0] if pos.size else (float(spacing) if spacing else 1.0)
+    T = fit_decays(pos, hgt, he, r_max=r_max)
+    six = fit_decays(r, G6, G6_err, r_min=0.8 * a, r_max=r_max)
+    out = {"eta_T": T["eta"], "eta_T_err": T["eta_err"], "xi_T": T["xi"], "xi_T_err": T["xi_err"],
+           "eta_6": six["eta"], "eta_6_err": six["eta_err"], "xi_6": six["xi"], "xi_6_err": six["xi_err"],
+           "T_points": T["n"], "T_sunk": T["sunk"], "T_r_end": T["r_end"],
+           "six_points": six["n"], "six_sunk": six["sunk"], "six_r_end": six["r_end"], "r_max": r_max}
+    return out
+
+
+def _p_below(x: float, err: float, bound: float) -> float:
+    if not np.isfinite(x):
+        return float("nan")
+    if not (np.isfinite(err) and err > 0):
+        return 1.0 if x < bound else 0.0
+    return float(ndtr((bound - x) / err))
+
+
+def _describe(fits: dict, which: str, bound: str) -> str:
+    curve = "G_r" if which == "T" else "G6"
+    if fits.get(f"{'T' if which == 'T' else 'six'}_sunk"):
+        return f"{curve} short-ranged (in its noise from r = {fits['T_r_end' if which == 'T' else 'six_r_end']:.3g})"
+    return f"eta_{which} = {fits[f'eta_{which}']:.3g} +- {fits[f'eta_{which}_err']:.2g} (bound {bound})"
+
+
+def classify_kthny(fits: dict, *, min_confidence: float = MIN_CONFIDENCE, n_cells: int | None = None) -> Label:
+    """KTHNY label from :func:`kthny_fits` (see module doc).
+
+    Returns
+    -------
+    Label
+        ``code`` one of ``phase.KTHNY_FLAGS``, ``confidence`` the probability of the most
+        probable label, ``reason`` the exponents that decided or why none did.
+    """
+    if n_cells is not None and n_cells < MIN_CELLS:
+        return Label(KTHNY_UNDETERMINED, float("nan"),
+                     f"N = {n_cells} < {MIN_CELLS}: G_r and G6 need distances up to half a box of at least "
+                     f"{MIN_CELLS} cells")
+    # bond order: a G6 sunk into its noise within half the range is short-ranged (an
+    # algebraic decay with eta_6 <= 1/4 loses less than half its value over that range)
+    if fits.get("six_sunk"):
+        p6 = 0.0
+    else:
+        p6 = _p_below(fits["eta_6"], fits["eta_6_err"], ETA_6_MAX)
+    if fits.get("T_sunk"):
+        pT = 0.0
+    else:
+        pT = _p_below(fits["eta_T"], fits["eta_T_err"], ETA_T_MAX)
+    if not np.isfinite(p6):
+        return Label(KTHNY_UNKNOWN, float("nan"), "G6 could not be fitted")
+    if not np.isfinite(pT):
+        pT = 0.0 if p6 < 1 - min_confidence else float("nan")
+        if not np.isfinite(pT):
+            return Label(KTHNY_UNDETERMINED, float("nan"), "G_r peak envelope could not be fitted")
+    p = {KTHNY_SOLID: pT * p6, KTHNY_HEXATIC: (1.0 - pT) * p6, KTHNY_LIQUID: 1.0 - p6}
+    best = max(p, key=lambda k: p[k])
+    conf = float(p[best])
+    what = ", ".join(_describe(fits, k, b) for k, b in (("T", "1/3"), ("6", "1/4")))
+    if conf < min_confidence:
+        return Label(KTHNY_UNDETERMINED, conf, f"{what}: P({kthny_name(best)}) = {conf:.2f} < {min_confidence:.2f}")
+    return Label(int(best), conf, f"P({kthny_name(best)}) = {conf:.3f}: {what}")
