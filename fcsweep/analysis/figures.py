@@ -1296,8 +1296,10 @@ def _fss_head(ds, sel, own, ax, text):
     head = rf"$v_0$ = {float(sel['v0']):g} $\mu F$"
     if text:
         head += f"; {text}"
-    if own:
-        head += ", " + caption(ds, sel).split(", ", 1)[-1]
+    if own:  # the caption without its N: every N is drawn
+        rest = [c for c in caption(ds, sel).split(", ") if c and not c.startswith("N = ")]
+        if rest:
+            head += ", " + ", ".join(rest)
     ax.set_title(textwrap.fill(head, _caption_chars(ax), break_long_words=False), fontsize=CAPTION_SIZE,
                  loc="left")
 
