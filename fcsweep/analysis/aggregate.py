@@ -80,6 +80,9 @@ META = {
     "cage_d_eff_bound": ("D_eff a broken cage stands for: a^2 / (4 cage_lag D0)", "1"),
     "F_s_window": ("self-intermediate scattering function of cage-relative displacements at k = 2 pi / a "
                    "and the lag cage_lag", "1"),
+    "D_eff_cr": ("cage-relative D_eff: a quarter of the late slope of the cage-relative MSD over D0 (the "
+                 "solid test)", "1"),
+    "D_eff_cr_err": ("1-sigma error of D_eff_cr (spatially contiguous cell blocks)", "1"),
     "tau_alpha": ("structural relaxation time: lag where F_s first falls below 1/e (time units; NaN: not "
                   "within the window)", "1"),
     "cage_lag_time": ("lag time of the cage-relative curves F_s and cage_msd (time units)", "1"),
@@ -170,11 +173,11 @@ SCALAR_VARS = ("D_eff", "D_eff_err", "D_eff_err_time", "D_eff_err_cells", "D_eff
                "largest_cluster_fraction", "largest_cluster_fraction_err", "psi6", "psi6_err",
                "n_frames", "t_start", "t_end", "t_equilibrated", "phase_confidence", "percolated_confidence",
                "D_eff_g_cells", "neighbour_spacing", "cage_lag", "cage_msd_ratio", "cage_msd_ratio_err",
-               "cage_broken_probability", "cage_d_eff_bound", "F_s_window", "tau_alpha",
+               "cage_broken_probability", "cage_d_eff_bound", "F_s_window", "tau_alpha", "D_eff_cr", "D_eff_cr_err",
                "eta_T", "eta_T_err", "xi_T", "xi_T_err", "eta_6", "eta_6_err", "xi_6", "xi_6_err", "kthny_confidence")
 #: Observables reduced over replicates (``<name>_rmean``, ``_rmean_err``, ``_rchi2``).
 REPLICATE_VARS = ("D_eff", "q_mean", "q_frac_above", "rho_d", "largest_cluster_fraction", "psi6",
-                  "cage_msd_ratio")
+                  "cage_msd_ratio", "D_eff_cr")
 #: Per-run strings, written as CF character arrays.
 STRING_VARS = ("run_id", "seed", "phase_reason", "percolated_reason", "kthny_reason", "tau_fisher_reason",
                "fss_reason")
@@ -429,6 +432,7 @@ def _reduce_replicates(ds: xr.Dataset, settings) -> None:
             "units": "1"})
     ok = ds["msd_diffusive"].fillna(0).astype(bool) & ds["msd_long_enough"].fillna(0).astype(bool)
     ok = ok.transpose(..., "replicate").values.all(axis=-1)
+    long_ok = ds["msd_long_enough"].fillna(0).astype(bool).transpose(..., "replicate").values.all(axis=-1)
     bound = ds["cage_d_eff_bound"].transpose(..., "replicate").values
     bound_ok = np.all(np.isfinite(bound) & (bound >= BOUND_FACTOR * D_EFF_SOLID), axis=-1)
     dims = [d for d in ds["phase"].dims if d != "replicate"]
@@ -441,7 +445,10 @@ def _reduce_replicates(ds: xr.Dataset, settings) -> None:
         D, q, r = reduced["D_eff"][idx], reduced["q_mean"][idx], reduced["rho_d"][idx]
         c = reduced["cage_msd_ratio"][idx]
         p_broken = float(ndtr((c[0] - 1.0) / c[1])) if bound_ok[idx] and c[1] > 0 else float("nan")
-        lab = classify_phase(D[0], D[1], q[0], q[1], diffusion_ok=bool(ok[idx]),
+        trusted = bool(ok[idx])
+        if np.all(np.isfinite(reduced["D_eff_cr"][idx][:2])):  # the solid test (pipeline.solid_test_estimate)
+            D, trusted = reduced["D_eff_cr"][idx], bool(long_ok[idx])
+        lab = classify_phase(D[0], D[1], q[0], q[1], diffusion_ok=trusted,
                              diffusion_note="a replicate's D_eff is not trustworthy", cage_broken=p_broken,
                              cage_note=f"replicate-mean cage-relative MSD {c[0]:.3g} +- {c[1]:.2g} a^2",
                              min_confidence=conf)
