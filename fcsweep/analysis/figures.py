@@ -40,7 +40,7 @@ from matplotlib.patches import Patch, Rectangle
 from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
 from fcsweep.analysis.diffusion import D_EFF_SOLID
-from fcsweep.analysis.phase import PHASE_FLAGS, RHO_D_PERCOLATION
+from fcsweep.analysis.phase import KTHNY_FLAGS, PHASE_FLAGS, RHO_D_PERCOLATION
 from fcsweep.analysis.results import find_run, has_analysed_run, run_trajectory, sweep_dataset
 from fcsweep.model.shape import Q_STAR
 
@@ -865,7 +865,6 @@ def msd_curves(ds, *, v0=None, select=None, ax=None):
 
 
 #: Codes of the ``kthny`` label, used where the dataset's variable lacks CF flag attributes.
-KTHNY_CODES = {-1: "unknown", 0: "solid", 1: "hexatic", 2: "liquid", 3: "undetermined"}
 #: Marker, colour and legend label of each summary label (:func:`summary_diagram`).
 SUMMARY_STYLE = {"solid": ("h", OKABE_ITO["blue"], "solid"),
                  "hexatic": ("D", OKABE_ITO["sky"], "hexatic"),
@@ -880,7 +879,7 @@ def summary_labels(ds, select=None) -> np.ndarray:
     hexatic, liquid) where it is decided, with a liquid whose phase is soft fluid called
     ``soft_fluid``; the phase label (solid, fluid -> liquid, soft fluid) where the KTHNY
     label is unknown; ``undetermined`` or ``unknown`` otherwise.  Needs ``kthny``."""
-    kthny = _phase_words(ds, ("v0", "eta"), select, var="kthny", default=KTHNY_CODES)
+    kthny = _phase_words(ds, ("v0", "eta"), select, var="kthny", default=KTHNY_FLAGS)
     phase = _phase_words(ds, ("v0", "eta"), select) if "phase" in ds else np.full(kthny.shape, "unknown", object)
     out = np.full(kthny.shape, "unknown", dtype=object)
     for word in ("solid", "hexatic", "liquid", "undetermined"):
