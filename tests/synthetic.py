@@ -5,6 +5,8 @@
   exact in distribution for the free ones (Euler steps much shorter than 1/Dr and 1/k).
 - :func:`collective_positions`: cells moved by a few box-wide displacement modes with
   random-walk amplitudes, plus independent thermal noise.
+- :func:`triangular_crystal`, :func:`random_sequential_discs`, :func:`aligned_mosaic`:
+  KTHNY solid, liquid and hexatic-like configurations.
 """
 
 import numpy as np
@@ -88,3 +90,33 @@ def random_sequential_discs(n, area_fraction, rng, radius=0.5):
             if len(pts) == 0 or np.min(np.einsum("ij,ij->i", d, d)) >= 4 * radius ** 2:
                 pts = np.vstack([pts, p])
     return pts, (L, L)
+
+
+def aligned_mosaic(n, domain, rng, *, tilt=0.03, jitter=0.05, a=1.0):
+    """Hexatic-like configuration: the box of an n x n triangular lattice cut into periodic
+    Voronoi domains (about ``domain`` spacings across), each filled with a triangular
+    lattice of one common orientation (+- ``tilt`` rad, Gaussian) but its own random
+    offset, then jittered (sd ``jitter * a``); of two cells closer than 0.7 a across a
+    domain wall one is dropped. Bond order stays long-ranged, translational order dies
+    over a domain. Returns (positions, box)."""
+    from scipy.spatial import cKDTree
+
+    L = np.array([n * a, n * a * np.sqrt(3) / 2])
+    seeds = rng.uniform(0, 1, (max(1, int(round(L.prod() / domain ** 2))), 2)) * L
+    owner = cKDTree(seeds, boxsize=L)
+    i, j = np.meshgrid(np.arange(-2, n + 3), np.arange(-2, n + 3), indexing="ij")
+    base = np.stack([(i + 0.5 * (j % 2)).ravel(), (j * np.sqrt(3) / 2).ravel()], 1) * a
+    parts = []
+    for k in range(len(seeds)):
+        th = rng.normal(scale=tilt)
+        R = np.array([[np.cos(th), -np.sin(th)], [np.sin(th), np.cos(th)]])
+        p = base @ R.T + rng.uniform(0, a, 2)
+        p = p[np.all((p >= 0) & (p < L), axis=1)]
+        parts.append(p[owner.query(p)[1] == k])
+    p = np.concatenate(parts)
+    p = np.mod(p + rng.normal(scale=jitter * a, size=p.shape), L)
+    keep = np.ones(len(p), bool)
+    for u, v in sorted(cKDTree(p, boxsize=L).query_pairs(0.7 * a)):
+        if keep[u] and keep[v]:
+            keep[v] = False
+    return p[keep], (float(L[0]), float(L[1]))

@@ -109,9 +109,14 @@ def test_label_near_threshold_is_undetermined_with_its_probability():
 def test_cage_relaxing_slower_than_the_persistence_time_is_not_called_fluid():
     """Lattice sites with Ornstein-Uhlenbeck displacements relaxing in 3/Dr (sd 0.3 R0,
     plateau 0.36 R0^2): true D = 0, but within blocks of 4/Dr (min_block_persistence=4) the MSD still rises like
-    D_eff ~ 3e-3. The whole run as one block sees it bend, the settling check fails, and the
-    estimate is flagged not diffusive (the label is then undetermined), never fluid."""
+    D_eff ~ 3e-3 (what D_eff alone would call fluid). The whole run as one block sees it
+    bend (D_long far below D); the cells never leave their cages (cage-relative MSD
+    ~0.05 a^2), so the phase rule, which takes "not solid" only from broken cages, never
+    calls it fluid."""
     from scipy.signal import lfilter
+
+    from fcsweep.analysis.cage import cage_breaking
+    from fcsweep.analysis.pipeline import cage_evidence
 
     rng = np.random.default_rng(8)
     frames, h, tau_c, sd = 1201, 2.0, 300.0, 0.3
@@ -120,13 +125,19 @@ def test_cage_relaxing_slower_than_the_persistence_time_is_not_called_fluid():
     noise[0] = rng.normal(scale=sd, size=(256, 2))
     u = lfilter([1.0], [1.0, -f], noise, axis=0)
     sites = np.stack(np.meshgrid(np.arange(16.0), np.arange(16.0)), -1).reshape(-1, 2) * 2.0
-    e = estimate_diffusion(np.arange(frames) * h, sites + u, Dr=DR, min_block_persistence=4.0)
+    t = np.arange(frames) * h
+    e = estimate_diffusion(t, sites + u, Dr=DR, min_block_persistence=4.0)
     short = classify_phase(e.D / D0, e.D_err / D0, 3.6, 0.001)
     assert short.code == PHASE_FLUID  # what the short blocks alone would say
-    assert not e.diffusive
-    lab = classify_phase(e.D / D0, e.D_err / D0, 3.6, 0.001, diffusion_ok=e.diffusive,
-                         diffusion_note="MSD not diffusive")
-    assert lab.code == PHASE_UNDETERMINED
+    assert e.D_long < e.D - 3 * np.hypot(e.D_err, e.D_long_err)
+    cb = cage_breaking(t, sites + u, (32.0, 32.0))
+    sc = {"cage_msd_ratio": cb.ratio, "cage_msd_ratio_err": cb.ratio_err, "cage_broken_probability": cb.p_broken,
+          "cage_lag": cb.lag, "cage_d_eff_bound": cb.d_eff_bound(V0, DR)}
+    p, note = cage_evidence(sc)
+    assert cb.ratio < 0.2 and p < 1e-6
+    lab = classify_phase(cb.D_cr / D0, cb.D_cr_err / D0, 3.6, 0.001, diffusion_ok=e.long_enough, cage_broken=p,
+                         cage_note=note)
+    assert lab.code != PHASE_FLUID
 
 
 def test_single_block_is_compared_with_half_blocks():

@@ -4,32 +4,54 @@
   (eta_T = 0) and constant G6 -> solid.
 - Random sequential addition of discs at area fraction 0.45: both correlations die within
   two diameters -> liquid.
-- N below MIN_CELLS (4096): undetermined, with the reason naming N.
+- An aligned mosaic of crystallites (one orientation, random offsets, domains ~8
+  spacings): G6 constant, G_r gone within a domain -> hexatic.
+- N below MIN_CELLS (4096): undetermined, with the reason naming N; G_r from one frame
+  (no errors): never solid or hexatic.
 """
+
+import functools
 
 import numpy as np
 import pytest
-from synthetic import random_sequential_discs, triangular_crystal
+from synthetic import aligned_mosaic, random_sequential_discs, triangular_crystal
 
 from fcsweep.analysis import kthny, order
-from fcsweep.analysis.phase import KTHNY_FLAGS, KTHNY_LIQUID, KTHNY_SOLID, KTHNY_UNDETERMINED, kthny_name
+from fcsweep.analysis.phase import (KTHNY_FLAGS, KTHNY_HEXATIC, KTHNY_LIQUID, KTHNY_SOLID, KTHNY_UNDETERMINED,
+                                    kthny_name)
 from fcsweep.analysis.pipeline import _frame_mean
 
+MAKERS = {
+    "crystal 0.05": lambda g: triangular_crystal(64, 0.05, g),
+    "crystal 0.1": lambda g: triangular_crystal(64, 0.1, g),
+    "discs": lambda g: random_sequential_discs(4096, 0.45, g),
+    "mosaic": lambda g: aligned_mosaic(68, 8.0, g),  # 4331 cells
+    "small crystal": lambda g: triangular_crystal(16, 0.08, g),
+}
 
-def _curves(make, frames, seed):
+
+@functools.cache
+def _frames(name, frames, seed):
+    """Per-frame G6(r) and G_r(dx, 0) of independent configurations (cached: they are the slow part)."""
     rng = np.random.default_rng(seed)
     g6s, grs = [], []
     for _ in range(frames):
-        pos, box = make(rng)
+        pos, box = MAKERS[name](rng)
         ps = order.psi6(pos, box)
         _, ang = order.global_psi6(ps)
         r, g = order.g6(pos, box, ps, dr=0.1)
         dx, gr = order.gr_cut(pos, box, ang, dx=0.1)
         g6s.append(g)
         grs.append(gr)
-    G6, G6e = _frame_mean(np.array(g6s))
-    Gr, Gre = _frame_mean(np.array(grs))
-    return kthny.kthny_fits(r, G6, dx, Gr, G6_err=G6e, Gr_err=Gre), len(pos)
+    return r, np.array(g6s), dx, np.array(grs), len(pos)
+
+
+def _fits(name, frames, seed, use=None):
+    r, g6s, dx, grs, N = _frames(name, frames, seed)
+    use = slice(None) if use is None else use
+    G6, G6e = _frame_mean(g6s[use])
+    Gr, Gre = _frame_mean(grs[use])
+    return kthny.kthny_fits(r, G6, dx, Gr, G6_err=G6e, Gr_err=Gre), N
 
 
 def test_names_and_flags():
@@ -41,7 +63,7 @@ def test_names_and_flags():
 def test_jittered_crystal_is_kthny_solid(jitter):
     """N = 4096, 2 frames: eta_T and eta_6 consistent with 0 (measured |eta| < 0.02 +- 0.02),
     far below 1/3 and 1/4."""
-    fits, N = _curves(lambda g: triangular_crystal(64, jitter, g), 2, 1)
+    fits, N = _fits(f"crystal {jitter}", 2, 1)
     assert abs(fits["eta_T"]) < 3 * fits["eta_T_err"] + 0.02 and abs(fits["eta_6"]) < 3 * fits["eta_6_err"] + 0.02
     assert fits["T_points"] >= 20  # one peak per lattice spacing over the last 3/4 of half the box
     lab = kthny.classify_kthny(fits, n_cells=N)
@@ -49,14 +71,38 @@ def test_jittered_crystal_is_kthny_solid(jitter):
 
 
 def test_random_disc_fluid_is_kthny_liquid():
-    fits, N = _curves(lambda g: random_sequential_discs(4096, 0.45, g), 1, 2)
-    assert fits["six_sunk"] and fits["six_r_end"] < 4.0  # G6 gone within ~2 diameters
+    """One frame (no errors): G6 falls into its noise within ~2 diameters and lies far below
+    the slowest decay eta_6 = 1/4 allows; G_r without errors cannot matter for a liquid."""
+    fits, N = _fits("discs", 1, 2)
+    assert fits["six_sunk"] and fits["six_r_end"] < 4.0 and fits["six_p_bound"] < 1e-6
     lab = kthny.classify_kthny(fits, n_cells=N)
     assert lab.code == KTHNY_LIQUID and lab.confidence > 0.99, lab.reason
 
 
+def test_aligned_mosaic_is_kthny_hexatic():
+    """Domains of ~8 spacings sharing one orientation: G6 flat (eta_6 measured 0.00-0.08),
+    the G_r envelope in its noise beyond a quarter of the range and far below
+    the slowest decay eta_T = 1/3 allows (P measured < 1e-3 at N ~ 2000-3800)."""
+    fits, N = _fits("mosaic", 2, 5)
+    assert N >= kthny.MIN_CELLS
+    assert fits["eta_6"] < 0.25 - 3 * fits["eta_6_err"]
+    assert fits["T_sunk"] and fits["T_p_bound"] < 0.01
+    lab = kthny.classify_kthny(fits, n_cells=N)
+    assert lab.code == KTHNY_HEXATIC and lab.confidence > 0.99, lab.reason
+
+
+def test_one_frame_never_reads_solid_or_hexatic():
+    """Without frame errors the local maxima of G_r noise are positive and flat (eta_T ~ 0):
+    a mosaic and a crystal from one frame are undetermined, naming the missing errors."""
+    for name in ("mosaic", "crystal 0.1"):
+        fits, N = _fits(name, 2, 5 if name == "mosaic" else 1, use=slice(0, 1))
+        assert not fits["T_errors"]
+        lab = kthny.classify_kthny(fits, n_cells=N)
+        assert lab.code == KTHNY_UNDETERMINED and "no error estimate" in lab.reason, (name, lab.reason)
+
+
 def test_small_system_is_undetermined_with_the_reason():
-    fits, N = _curves(lambda g: triangular_crystal(16, 0.08, g), 2, 3)
+    fits, N = _fits("small crystal", 2, 3)
     lab = kthny.classify_kthny(fits, n_cells=N)
     assert lab.code == KTHNY_UNDETERMINED and f"N = {N}" in lab.reason
 
@@ -73,10 +119,28 @@ def test_fit_decays_recovers_known_exponent_and_length():
     assert f["xi"] == pytest.approx(4.0, rel=0.05) and f["chi2_exp"] < f["chi2_power"]
 
 
+def test_a_curve_in_its_noise_is_tested_against_its_bound():
+    """Exact curves plus noise of sd 0.01 (errors known): an exponential (xi = 2) falls far
+    below the r^(-1/3) decay from its last 5-sigma point (P ~ 0); a curve that keeps an
+    r^(-0.1) decay but drops under 2 sigma once by chance stays consistent with the
+    bound (P > 1/2)."""
+    rng = np.random.default_rng(6)
+    r = np.arange(1.0, 33.0)
+    e = np.full(r.size, 0.01)
+    y = np.exp(-r / 2.0) + 0.01 * rng.normal(size=r.size)
+    f = kthny.fit_decays(r, y, e, r_min=8.0, r_max=32.0)
+    assert f["sunk"]
+    assert kthny._p_above_bound(r, y, e, kthny.ETA_T_MAX, 8.0, 32.0) < 1e-6
+    y = 0.05 * r ** -0.1 + 0.01 * rng.normal(size=r.size)
+    y[8] = 0.0  # one point dropped into the noise
+    assert kthny.fit_decays(r, y, e, r_min=8.0, r_max=32.0)["sunk"]
+    assert kthny._p_above_bound(r, y, e, kthny.ETA_T_MAX, 8.0, 32.0) > 0.5
+
+
 def test_hexatic_from_exponents():
     """Short-ranged translational order with quasi-long-ranged bond order is hexatic; an
     exponent straddling its bound is undetermined."""
     fits = {"eta_T": 1.5, "eta_T_err": 0.1, "eta_6": 0.1, "eta_6_err": 0.03, "T_sunk": False, "six_sunk": False}
-    assert kthny.classify_kthny(fits, n_cells=4900).code == 1
+    assert kthny.classify_kthny(fits, n_cells=4900).code == KTHNY_HEXATIC
     near = dict(fits, eta_6=0.25, eta_6_err=0.05)
     assert kthny.classify_kthny(near, n_cells=4900).code == KTHNY_UNDETERMINED
