@@ -20,15 +20,28 @@ an exponential decay over the fitted range reads as a large effective exponent, 
     P(hexatic) = P(eta_T > 1/3) P(eta_6 < 1/4),
     P(liquid)  = P(eta_6 > 1/4),
 
-each Gaussian in the fitted exponent; a curve that falls into its noise within half the
-fitted range counts as short-ranged. The label is the most probable one when it reaches
-the confidence, else undetermined. The envelope is fitted from a quarter of the range
-on (its asymptotic part), so a decision needs at least ``MIN_CELLS`` = 4096 cells (half
-the box then spans 32 neighbour spacings). Measured on N = 1024 crystals of the model
-(eta = 0.1, v0 = 0.01-0.03, 1000 time units): the effective exponent of the envelope
-still falls with the start of the fit (1.03, 0.90, 0.65 from 1, 3 and 5 spacings at v0 =
-0.03), so at 16 spacings the asymptotic exponent is not reached; synthetic crystals and
-random discs are told apart already at N = 1024 (tests/test_kthny.py).
+each Gaussian in the fitted exponent. A curve that falls into its noise (a point less
+than 2 errors above zero) within half the fitted range is not fitted; it is tested against
+the slowest decay its bound allows, ``y_ref (r / r_ref)^(-1/3)`` (``-1/4`` for G6) drawn
+from its last point 5 pooled errors above zero, and P(eta <= bound) = Phi(d / s) with
+``d`` the mean excess of the points after the fall over that curve and ``s`` its error
+(:func:`_p_above_bound`). Without errors on G_r (one frame) the envelope is not used:
+local maxima of noise are positive and flat and would read as eta_T ~ 0, so such a curve
+can only say liquid (from G6). The label is the most probable one when it reaches the
+confidence, else undetermined.
+
+**What N a decision needs.** The envelope is fitted from a quarter of the range on (its
+asymptotic part), so a decision needs at least ``MIN_CELLS`` = 4096 cells (half the box
+then spans 32 neighbour spacings). Measured on N = 1024 crystals of the model (eta = 0.1,
+v0 = 0.01-0.03, 1000 time units): the effective exponent of the envelope still falls with
+the start of the fit (1.03, 0.90, 0.65 from 1, 3 and 5 spacings at v0 = 0.03), so at 16
+spacings the asymptotic exponent is not reached. The synthetic cases decide much earlier
+(``n_cells`` not given, 2 frames, every decided label right): jittered triangular crystals
+(jitter 0.1) solid from N = 256-576 on (at 256 one seed of three undetermined), random
+sequential discs (area fraction 0.45) liquid from N = 256, aligned mosaics of crystallites
+(tests/synthetic.py ``aligned_mosaic``: bond order long-ranged, translational order
+lost over a domain of 4-8 spacings) hexatic from N ~ 2000 (at N ~ 900 one of two
+undetermined).
 """
 
 from __future__ import annotations
@@ -50,6 +63,9 @@ MIN_CELLS = 4096
 ASYMPTOTIC = 0.25
 #: Fewest points a decay fit needs.
 MIN_POINTS = 3
+#: A curve that fell into its noise is tested against its bound drawn from its last point
+#: this many errors above zero.
+REF_SIGMAS = 5.0
 
 
 def peak_envelope(dx, Gr, *, spacing: float | None = None):
@@ -115,7 +131,7 @@ def fit_decays(r, y, y_err=None, *, r_min: float = 0.0, r_max: float | None = No
     r_max = float(np.nanmax(r)) if r_max is None else float(r_max)
     keep = (r >= r_min) & (r <= r_max) & np.isfinite(y)
     r, y, e = r[keep], y[keep], e[keep]
-    clear = (y > 0) & ~(np.isfinite(e) & (y < 2.0 * e))
+    clear = _clear(y, e)
     stop = int(np.argmin(clear)) if not clear.all() else y.size
     r, y, e = r[:stop], y[:stop], e[:stop]
     nan = float("nan")
@@ -162,7 +178,11 @@ def kthny_fits(r, G6, dx, Gr, *, G6_err=None, Gr_err=None, spacing: float | None
     dict
         ``eta_T``, ``eta_T_err``, ``xi_T``, ``xi_T_err``, ``eta_6``, ``eta_6_err``,
         ``xi_6``, ``xi_6_err``, plus ``T_points``, ``T_sunk``, ``T_r_end``, ``six_points``,
-        ``six_sunk``, ``six_r_end`` and ``r_max`` (the fitted range).
+        ``six_sunk``, ``six_r_end`` (points fitted, fell into the noise within half the
+        range, last distance fitted), ``T_p_bound``, ``six_p_bound`` (for a curve that fell
+        into its noise, the probability that it still decays no faster than its KTHNY
+        bound; NaN otherwise), ``T_errors`` (``Gr_err`` known over the fitted range) and
+        ``r_max`` (the fitted range).
     """
     dx = np.asarray(dx, dtype=float)
     Gr = np.asarray(Gr, dtype=float)
@@ -171,15 +191,73 @@ def kthny_fits(r, G6, dx, Gr, *, G6_err=None, Gr_err=None, spacing: float | None
         he = np.interp(pos, dx, np.nan_to_num(np.asarray(Gr_err, dtype=float), nan=np.nan))
     else:
         he = None
-    r_max = float(np.nanmax(dx)) if dx.size else float("nan")
+    nan = float("nan")
+    r_max = float(np.nanmax(dx)) if dx.size else nan
     a = pos[0] if pos.size else (float(spacing) if spacing else 1.0)
     T = fit_decays(pos, hgt, he, r_min=ASYMPTOTIC * r_max, r_max=r_max)
     six = fit_decays(r, G6, G6_err, r_min=0.8 * a, r_max=r_max)
+    in_range = pos >= ASYMPTOTIC * r_max
     out = {"eta_T": T["eta"], "eta_T_err": T["eta_err"], "xi_T": T["xi"], "xi_T_err": T["xi_err"],
            "eta_6": six["eta"], "eta_6_err": six["eta_err"], "xi_6": six["xi"], "xi_6_err": six["xi_err"],
            "T_points": T["n"], "T_sunk": T["sunk"], "T_r_end": T["r_end"],
-           "six_points": six["n"], "six_sunk": six["sunk"], "six_r_end": six["r_end"], "r_max": r_max}
+           "T_p_bound": _p_above_bound(pos, hgt, he, ETA_T_MAX, ASYMPTOTIC * r_max, r_max) if T["sunk"] else nan,
+           "T_errors": bool(he is not None and in_range.any() and np.all(np.isfinite(he[in_range]))),
+           "six_points": six["n"], "six_sunk": six["sunk"], "six_r_end": six["r_end"],
+           "six_p_bound": _p_above_bound(np.asarray(r, dtype=float), np.asarray(G6, dtype=float),
+                                         None if G6_err is None else np.asarray(G6_err, dtype=float),
+                                         ETA_6_MAX, 0.8 * a, r_max) if six["sunk"] else nan,
+           "r_max": r_max}
     return out
+
+
+def _clear(y, e):
+    """Points standing clear of their noise: positive and, where an error is known, 2 errors above 0."""
+    return (y > 0) & ~(np.isfinite(e) & (y < 2.0 * e))
+
+
+def _p_above_bound(x, y, e, bound: float, r_min: float, r_max: float) -> float:
+    """Probability that a curve which fell into its noise still decays no faster than ``r^(-bound)``.
+
+    The slowest decay the bound allows is drawn from the last point ``REF_SIGMAS`` errors
+    above zero before the curve fell into its noise within ``[r_min, r_max]`` (``x_ref``,
+    ``y_ref``; it may lie before ``r_min``): ``b(r) = y_ref (r / x_ref)^(-bound)``. Over
+    the points from the fall to ``r_max`` the weighted mean excess ``d`` of the data over
+    ``b`` has the error ``s`` (the points' errors pooled, or without them the scatter of
+    those points, and the error of ``y_ref`` carried along ``b``); the probability is
+    ``Phi(d / s)``. NaN when there is no such reference point or fewer than 2 points after
+    the fall.
+    """
+    x = np.asarray(x, dtype=float)
+    y = np.asarray(y, dtype=float)
+    e = np.full(y.shape, np.nan) if e is None else np.asarray(e, dtype=float)
+    ok = np.isfinite(x) & np.isfinite(y) & (x <= r_max) & (x > 0)
+    x, y, e = x[ok], y[ok], e[ok]
+    clear = _clear(y, e)
+    fit = x >= r_min
+    if not fit.any():
+        return float("nan")
+    first = int(np.argmax(fit))
+    stop = first + (int(np.argmin(clear[first:])) if not clear[first:].all() else int(fit.sum()))
+    tail = slice(stop, x.size)
+    if x.size - stop < 2:
+        return float("nan")
+    et = e[tail]
+    # the noise pooled over the tail: per-point errors from a few frames scatter widely
+    if np.all(np.isfinite(et) & (et > 0)):
+        noise = float(np.sqrt(np.mean(et ** 2)))
+    else:  # no errors: the scatter of the noise itself
+        noise = float(np.std(y[tail], ddof=1))
+    # the reference must stand well clear: the tail's local maxima of noise sit about one
+    # error above zero, and a bound drawn from a marginal point would lie below them
+    sig = np.maximum(np.where(np.isfinite(e[:stop]), e[:stop], 0.0), noise)
+    ref = np.flatnonzero(y[:stop] > REF_SIGMAS * sig)
+    if ref.size == 0 or not noise > 0:
+        return float("nan")
+    k = int(ref[-1])
+    shape = (x[tail] / x[k]) ** (-bound)
+    mean = float(np.mean(y[tail] - y[k] * shape))
+    s = float(np.sqrt(noise ** 2 / shape.size + (sig[k] * np.mean(shape)) ** 2))
+    return float(ndtr(mean / s)) if s > 0 else float(mean >= 0)
 
 
 def _p_below(x: float, err: float, bound: float) -> float:
@@ -191,9 +269,14 @@ def _p_below(x: float, err: float, bound: float) -> float:
 
 
 def _describe(fits: dict, which: str, bound: str) -> str:
-    curve = "G_r" if which == "T" else "G6"
-    if fits.get(f"{'T' if which == 'T' else 'six'}_sunk"):
-        return f"{curve} short-ranged (in its noise from r = {fits['T_r_end' if which == 'T' else 'six_r_end']:.3g})"
+    curve, key = ("G_r", "T") if which == "T" else ("G6", "six")
+    if which == "T" and not fits.get("T_errors", True):
+        return "G_r without errors"
+    if fits.get(f"{key}_sunk"):
+        p, r_end = fits.get(f"{key}_p_bound", 0.0), fits.get(f"{key}_r_end", float("nan"))
+        where = f"from r = {r_end:.3g}" if np.isfinite(r_end) else "over the whole fitted range"
+        test = f"; P(eta_{which} <= {bound}) = {p:.2g}" if np.isfinite(p) else ""
+        return f"{curve} short-ranged (in its noise {where}{test})"
     return f"eta_{which} = {fits[f'eta_{which}']:.3g} +- {fits[f'eta_{which}_err']:.2g} (bound {bound})"
 
 
@@ -210,22 +293,27 @@ def classify_kthny(fits: dict, *, min_confidence: float = MIN_CONFIDENCE, n_cell
         return Label(KTHNY_UNDETERMINED, float("nan"),
                      f"N = {n_cells} < {MIN_CELLS}: G_r and G6 need distances up to half a box of at least "
                      f"{MIN_CELLS} cells")
-    # bond order: a G6 sunk into its noise within half the range is short-ranged (an
-    # algebraic decay with eta_6 <= 1/4 loses less than half its value over that range)
+    # a curve sunk into its noise is tested against the slowest decay its bound allows
+    # (r^(-1/4) or r^(-1/3) from its last point 5 errors above zero), not taken as short-ranged outright
     if fits.get("six_sunk"):
-        p6 = 0.0
+        p6 = fits.get("six_p_bound", 0.0)
+        if not np.isfinite(p6):
+            return Label(KTHNY_UNDETERMINED, float("nan"), "G6 fell into its noise with too few points to test")
     else:
         p6 = _p_below(fits["eta_6"], fits["eta_6_err"], ETA_6_MAX)
-    if fits.get("T_sunk"):
-        pT = 0.0
+        if not np.isfinite(p6):
+            return Label(KTHNY_UNKNOWN, float("nan"), "G6 could not be fitted")
+    if not fits.get("T_errors", True):
+        # the local maxima of noise are positive and flat: without errors they read as eta_T ~ 0
+        pT, why_T = float("nan"), "G_r has no error estimate (one frame): its peaks cannot be told from noise"
+    elif fits.get("T_sunk"):
+        pT, why_T = fits.get("T_p_bound", 0.0), "G_r fell into its noise with too few points to test"
     else:
-        pT = _p_below(fits["eta_T"], fits["eta_T_err"], ETA_T_MAX)
-    if not np.isfinite(p6):
-        return Label(KTHNY_UNKNOWN, float("nan"), "G6 could not be fitted")
+        pT, why_T = _p_below(fits["eta_T"], fits["eta_T_err"], ETA_T_MAX), "G_r peak envelope could not be fitted"
     if not np.isfinite(pT):
-        pT = 0.0 if p6 < 1 - min_confidence else float("nan")
-        if not np.isfinite(pT):
-            return Label(KTHNY_UNDETERMINED, float("nan"), "G_r peak envelope could not be fitted")
+        if p6 > 1 - min_confidence:  # not liquid by G6 alone: the translational order must decide
+            return Label(KTHNY_UNDETERMINED, float("nan"), why_T)
+        pT = 0.0
     p = {KTHNY_SOLID: pT * p6, KTHNY_HEXATIC: (1.0 - pT) * p6, KTHNY_LIQUID: 1.0 - p6}
     best = max(p, key=lambda k: p[k])
     conf = float(p[best])
