@@ -6,9 +6,9 @@ displacement of its Voronoi neighbours at the time origin; Vivek et al., PNAS 11
 (2017); Illing et al., PNAS 114, 1856 (2017)), which removes the long-wavelength
 collective motion that moves a 2-D crystal without breaking it, and compares its mean
 square at a lag ``t*`` (the first lag at which it exceeds ``a^2`` by three errors, else
-the whole analysed window: the earliest clear crossing gives the strongest bound below) with the squared neighbour spacing
-``a^2``, ``a = (2 A / (sqrt(3) N))^(1/2)`` (the spacing of a triangular lattice of that
-density; 1.95 R0 at area fraction 0.95). The cage is broken when cells have, on average,
+the whole analysed window: the earliest clear crossing gives the strongest bound below)
+with the squared neighbour spacing ``a^2``, ``a = (2 A / (sqrt(3) N))^(1/2)`` (the
+spacing of a triangular lattice of that density; 1.95 R0 at area fraction 0.95). The cage is broken when cells have, on average,
 moved farther than a neighbour spacing relative to their first shell, with probability
 ``P(CR-MSD(t*) > a^2)`` from the scatter over spatially contiguous blocks of cells.
 

@@ -431,6 +431,21 @@ def _cell_fontsize(ax, n_cols) -> tuple[float, int]:
 
 
 @_styled
+def _eta_v0_axes(ax, eta, v0, ex, ey, log_x: bool, log_y: bool) -> None:
+    """Scales, grid ticks, limits (cell edges ``ex``, ``ey``) and labels of an eta x v0 map."""
+    if log_x:
+        ax.set_xscale("log")
+    if log_y:
+        ax.set_yscale("log")
+    for axis, log, vals in ((ax.xaxis, log_x, eta), (ax.yaxis, log_y, v0)):
+        if log:
+            _grid_ticks(axis, vals)
+    ax.set_xlim(ex[0], ex[-1])
+    ax.set_ylim(ey[0], ey[-1])
+    ax.set_xlabel(ETA_LABEL)
+    ax.set_ylabel(V0_LABEL)
+
+
 def phase_diagram(ds, *, select=None, reasons: bool = True, ax=None):
     """Phase regions in the (eta, v0) plane, with the <q> = 3.81 and rho_d = 1/2 contours.
 
@@ -485,17 +500,7 @@ def phase_diagram(ds, *, select=None, reasons: bool = True, ax=None):
             if f.count() >= 4 and np.nanmin(field) < level < np.nanmax(field):
                 ax.contour(eta, v0, f, levels=[level], colors="k", linestyles=style, linewidths=1.5)
                 handles.append(plt.Line2D([], [], color="k", ls=style, lw=1.5, label=label))
-    if log_x:
-        ax.set_xscale("log")
-    if log_y:
-        ax.set_yscale("log")
-    for axis, log, vals in ((ax.xaxis, log_x, eta), (ax.yaxis, log_y, v0)):
-        if log:
-            _grid_ticks(axis, vals)
-    ax.set_xlim(ex[0], ex[-1])
-    ax.set_ylim(ey[0], ey[-1])
-    ax.set_xlabel(ETA_LABEL)
-    ax.set_ylabel(V0_LABEL)
+    _eta_v0_axes(ax, eta, v0, ex, ey, log_x, log_y)
     if reasons and undetermined:
         why = _point_reasons(ds, ("v0", "eta"), select)
         size, chars = _cell_fontsize(ax, len(eta))
@@ -934,17 +939,7 @@ def summary_diagram(ds, *, select=None, ax=None):
         ax.scatter(E[here], V[here], s=area, marker=marker, c=color, edgecolors=edge, linewidths=0.6,
                    hatch=hatch, label=text, gid=word, zorder=3)
         handles.append(word)
-    if log_x:
-        ax.set_xscale("log")
-    if log_y:
-        ax.set_yscale("log")
-    for axis, log, vals in ((ax.xaxis, log_x, eta), (ax.yaxis, log_y, v0)):
-        if log:
-            _grid_ticks(axis, vals)
-    ax.set_xlim(ex[0], ex[-1])
-    ax.set_ylim(ey[0], ey[-1])
-    ax.set_xlabel(ETA_LABEL)
-    ax.set_ylabel(V0_LABEL)
+    _eta_v0_axes(ax, eta, v0, ex, ey, log_x, log_y)
     if own:
         ax.set_title(caption(ds, select, _caption_chars(ax)), fontsize=CAPTION_SIZE, loc="left")
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.2), borderaxespad=0, ncols=3, columnspacing=1.0,

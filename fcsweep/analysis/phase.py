@@ -202,7 +202,8 @@ def _classify_with_cages(D, De, q, qe, diffusion_ok, diffusion_note, p_broken, c
         if conf < min_confidence:
             return Label(PHASE_UNDETERMINED, conf, f"D_eff = {_fmt(D, De)} reads solid but the cages may be "
                                                    f"broken (P = {p_broken:.2f}); a longer run decides")
-        return Label(PHASE_SOLID, conf, f"P(solid) = {conf:.3f}; {cage_note}" if cage_note else f"P(solid) = {conf:.3f}")
+        why = f"P(solid) = {conf:.3f}"
+        return Label(PHASE_SOLID, conf, f"{why}; {cage_note}" if cage_note else why)
     conf = float(max(p_solid_d, 1.0 - p_solid_d)) if np.isfinite(p_solid_d) else float("nan")
     if not diffusion_ok:
         why = diffusion_note or "D_eff estimate not trustworthy"

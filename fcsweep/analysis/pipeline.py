@@ -305,7 +305,10 @@ def _frame_mean(curves: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         warnings.simplefilter("ignore", RuntimeWarning)  # bins without pairs in some frames
         m = np.nanmean(curves, axis=0)
         n = np.sum(np.isfinite(curves), axis=0)
-        e = np.nanstd(curves, axis=0, ddof=1) / np.sqrt(np.maximum(n, 1)) if curves.shape[0] > 1 else np.full(m.shape, np.nan)
+        if curves.shape[0] > 1:
+            e = np.nanstd(curves, axis=0, ddof=1) / np.sqrt(np.maximum(n, 1))
+        else:
+            e = np.full(m.shape, np.nan)
     return m, e
 
 
