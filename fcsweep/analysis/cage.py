@@ -8,8 +8,9 @@ collective motion that moves a 2-D crystal without breaking it, and compares its
 square at a lag ``t*`` (the first lag at which it exceeds ``a^2`` by three errors, else
 the whole analysed window: the earliest clear crossing gives the strongest bound below)
 with the squared neighbour spacing ``a^2``, ``a = (2 A / (sqrt(3) N))^(1/2)`` (the
-spacing of a triangular lattice of that density; 1.95 R0 at area fraction 0.95). The cage is broken when cells have, on average,
-moved farther than a neighbour spacing relative to their first shell, with probability
+spacing of a triangular lattice of that density; 1.95 R0 at area fraction 0.95). The
+cage is broken when cells have, on average, moved farther than a neighbour spacing
+relative to their first shell, with probability
 ``P(CR-MSD(t*) > a^2)`` from the scatter over spatially contiguous blocks of cells.
 
 Why this is the paper's criterion. A broken cage at lag ``t*`` means ``D_s >~ a^2 / (4 t*)``
