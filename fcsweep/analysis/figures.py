@@ -85,7 +85,7 @@ def save_figure(fig, stem, *, dpi: int = 300) -> list[Path]:
     out = []
     for ext in ("png", "pdf"):
         p = stem.with_suffix(f".{ext}")
-        fig.savefig(p, dpi=dpi)
+        fig.savefig(p, dpi=dpi, bbox_inches="tight", pad_inches=0.03)  # legends below the axes stay in
         out.append(p)
     plt.close(fig)
     return out
