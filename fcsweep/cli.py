@@ -711,22 +711,23 @@ def refine(config, output, rounds, max_points, workers, add_only, quiet):
         sys.exit(1)
 
 
-def _rebind(cfg: SweepConfig) -> SweepConfig:
-    """``cfg`` with the refinement points now recorded (exit 2 if the file does not fit)."""
+def _or_exit(call):
+    """``call()``, or exit 2 with the message when the refinement file does not fit the config."""
     try:
-        return cfg.with_refinement()
+        return call()
     except ConfigError as exc:
         click.echo(f"fcsweep: invalid config: {exc}", err=True)
         sys.exit(2)
+
+
+def _rebind(cfg: SweepConfig) -> SweepConfig:
+    """``cfg`` with the refinement points now recorded (exit 2 if the file does not fit)."""
+    return _or_exit(cfg.with_refinement)
 
 
 def _runs(cfg: SweepConfig) -> list:
     """The runs of a sweep, refined points included (exit 2 if the refinement file does not fit)."""
-    try:
-        return cfg.runs()
-    except ConfigError as exc:
-        click.echo(f"fcsweep: invalid config: {exc}", err=True)
-        sys.exit(2)
+    return _or_exit(cfg.runs)
 
 
 def _refine_compute(cfg: SweepConfig, workers: int, quiet: bool) -> int:

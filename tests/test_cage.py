@@ -29,8 +29,7 @@ def _label(k, span, seed, q=(3.6, 0.002)):
     x = abp_positions(256, frames, 2.0, v0=V0, Dr=DR, k=k, substeps=4, rng=np.random.default_rng(seed))
     est = estimate_diffusion(t, x, Dr=DR)
     cb = cage_breaking(t, x, BOX)
-    sc = {"cage_msd_ratio": cb.ratio, "cage_msd_ratio_err": cb.ratio_err, "cage_broken_probability": cb.p_broken,
-          "cage_lag": cb.lag, "cage_d_eff_bound": cb.d_eff_bound(V0, DR)}
+    sc = cb.scalars(V0, DR)
     p, note = cage_evidence(sc)
     ok = est.long_enough and est.diffusive
     return classify_phase(est.D / D0, est.D_err / D0, *q, diffusion_ok=ok, diffusion_note="D_eff not trusted",
@@ -135,8 +134,7 @@ def _model_label(eta, v0, time_units=500.0, every=400, N=256):
     est = estimate_diffusion(t, x, Dr=DR)
     cb = cage_breaking(t, x, box)
     D0m = free_diffusion(v0, DR)
-    sc = {"cage_msd_ratio": cb.ratio, "cage_msd_ratio_err": cb.ratio_err, "cage_broken_probability": cb.p_broken,
-          "cage_lag": cb.lag, "cage_d_eff_bound": cb.d_eff_bound(v0, DR)}
+    sc = cb.scalars(v0, DR)
     p, note = cage_evidence(sc)
     qa = time_average(np.array(q)[keep])
     return classify_phase(est.D / D0m, est.D_err / D0m, qa.mean, qa.err,

@@ -131,8 +131,7 @@ def test_cage_relaxing_slower_than_the_persistence_time_is_not_called_fluid():
     assert short.code == PHASE_FLUID  # what the short blocks alone would say
     assert e.D_long < e.D - 3 * np.hypot(e.D_err, e.D_long_err)
     cb = cage_breaking(t, sites + u, (32.0, 32.0))
-    sc = {"cage_msd_ratio": cb.ratio, "cage_msd_ratio_err": cb.ratio_err, "cage_broken_probability": cb.p_broken,
-          "cage_lag": cb.lag, "cage_d_eff_bound": cb.d_eff_bound(V0, DR)}
+    sc = cb.scalars(V0, DR)
     p, note = cage_evidence(sc)
     assert cb.ratio < 0.2 and p < 1e-6
     lab = classify_phase(cb.D_cr / D0, cb.D_cr_err / D0, 3.6, 0.001, diffusion_ok=e.long_enough, cage_broken=p,

@@ -33,17 +33,16 @@ from pathlib import Path
 
 import numpy as np
 import xarray as xr
-from scipy.special import ndtr
 
 from fcsweep import __version__
 from fcsweep.analysis.phase import (KTHNY_FLAGS, KTHNY_UNDETERMINED, MIN_CONFIDENCE, PERCOLATION_FLAGS, PHASE_FLAGS,
                                     classify_percolation, classify_phase, flag_attrs)
-from fcsweep.analysis.cage import BOUND_FACTOR
-from fcsweep.analysis.diffusion import D_EFF_SOLID
+from fcsweep.analysis.cage import bounds_d_eff, broken_probability
 from fcsweep.analysis.percolation import FSS_BOOTSTRAP, fisher_observables, fss_collapse
 from fcsweep.analysis.stats import combine
+from fcsweep.io.status import read_status
 from fcsweep.io.sweepdir import run_path, run_state
-from fcsweep.analysis.pipeline import (ANALYSIS_ERROR_FILE, ANALYSIS_FILE, CURVES, DATASET_FILE, _read_status,
+from fcsweep.analysis.pipeline import (ANALYSIS_ERROR_FILE, ANALYSIS_FILE, CURVES, DATASET_FILE,
                                       read_analysis)
 
 CORE_DIMS = ("eta", "v0", "N")
@@ -401,7 +400,7 @@ def cost_attributes(config) -> dict:
     totals = dict.fromkeys(COST_ATTRIBUTES, 0.0)
     stops = {"settled": 0, "steps": 0}
     for spec in config.runs():
-        st = _read_status(Path(config.output) / "runs" / spec.run_id) or {}
+        st = read_status(run_path(config.output, spec.run_id)) or {}
         for k in totals:
             totals[k] += float(st.get(k) or 0.0)
         if st.get("status") == "done" and st.get("stop_reason", "steps") in stops:
@@ -434,7 +433,7 @@ def _reduce_replicates(ds: xr.Dataset, settings) -> None:
     ok = ok.transpose(..., "replicate").values.all(axis=-1)
     long_ok = ds["msd_long_enough"].fillna(0).astype(bool).transpose(..., "replicate").values.all(axis=-1)
     bound = ds["cage_d_eff_bound"].transpose(..., "replicate").values
-    bound_ok = np.all(np.isfinite(bound) & (bound >= BOUND_FACTOR * D_EFF_SOLID), axis=-1)
+    bound_ok = np.all(bounds_d_eff(bound), axis=-1)
     dims = [d for d in ds["phase"].dims if d != "replicate"]
     shape = ok.shape
     phase = np.full(shape, -1, dtype=np.int8)
@@ -444,7 +443,7 @@ def _reduce_replicates(ds: xr.Dataset, settings) -> None:
     for idx in np.ndindex(shape):
         D, q, r = reduced["D_eff"][idx], reduced["q_mean"][idx], reduced["rho_d"][idx]
         c = reduced["cage_msd_ratio"][idx]
-        p_broken = float(ndtr((c[0] - 1.0) / c[1])) if bound_ok[idx] and c[1] > 0 else float("nan")
+        p_broken = broken_probability(c[0], c[1]) if bound_ok[idx] and c[1] > 0 else float("nan")
         trusted = bool(ok[idx])
         if np.all(np.isfinite(reduced["D_eff_cr"][idx][:2])):  # the solid test (pipeline.solid_test_estimate)
             D, trusted = reduced["D_eff_cr"][idx], bool(long_ok[idx])

@@ -35,6 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.special import j0, ndtr
 
+from fcsweep.analysis.diffusion import D_EFF_SOLID, free_diffusion
 from fcsweep.analysis.voronoi import voronoi_neighbors
 
 #: The cage-breaking bound on D_eff must exceed the solid threshold this many times.
@@ -93,10 +94,29 @@ class CageBreaking:
 
     def d_eff_bound(self, v0: float, Dr: float) -> float:
         """``a^2 / (4 t* D0)``: the D_eff a broken cage at ``t*`` stands for (NaN if D0 is 0)."""
-        D0 = float(v0) ** 2 / (2.0 * float(Dr)) if Dr > 0 else float("inf")
+        D0 = free_diffusion(v0, Dr)
         if not (np.isfinite(D0) and D0 > 0 and self.lag > 0):
             return float("nan")
         return float(self.spacing ** 2 / (4.0 * self.lag * D0))
+
+
+    def scalars(self, v0: float, Dr: float) -> dict:
+        """The cage observables as stored in ``analysis.h5`` (names of the pipeline)."""
+        return {"neighbour_spacing": self.spacing, "cage_lag": self.lag, "cage_msd_ratio": self.ratio,
+                "cage_msd_ratio_err": self.ratio_err, "cage_broken_probability": self.p_broken,
+                "cage_d_eff_bound": self.d_eff_bound(v0, Dr), "F_s_window": self.fs, "tau_alpha": self.tau_alpha}
+
+
+def broken_probability(ratio: float, err: float) -> float:
+    """``P(ratio > 1)`` for a Gaussian estimate of the cage-relative MSD over ``a^2``."""
+    return float(ndtr((ratio - 1.0) / err)) if err > 0 else float(ratio > 1.0)
+
+
+def bounds_d_eff(bound) -> np.ndarray | bool:
+    """Whether a broken cage with this ``d_eff_bound`` rules out a solid (bound finite and
+    at least ``BOUND_FACTOR`` times the solid threshold); arrays element-wise."""
+    b = np.asarray(bound, dtype=float)
+    return np.isfinite(b) & (b >= BOUND_FACTOR * D_EFF_SOLID)
 
 
 def _lag_frames(T: int, n: int = 16) -> np.ndarray:
@@ -166,7 +186,7 @@ def cage_breaking(time, unwrapped, box, *, spacing: float | None = None,
     clear = np.flatnonzero(ratios - 3.0 * errs > 1.0)
     at = int(clear[0]) if clear.size else lags.size - 1
     ratio, err = float(ratios[at]), float(errs[at])
-    p = float(ndtr((ratio - 1.0) / err)) if err > 0 else float(ratio > 1.0)
+    p = broken_probability(ratio, err)
     D, D_err = _late_slope(lags * h, blocks * a ** 2)
     below = np.flatnonzero(fs < np.exp(-1.0))
     if below.size == 0:

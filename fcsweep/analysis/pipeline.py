@@ -264,9 +264,7 @@ def compute_observables(traj, settings: dict, *, curves: bool = True,
               msd_diffusive=float(est.diffusive), msd_long_enough=float(est.long_enough),
               n_time_blocks=float(est.n_time_blocks), block_span=est.block_span,
               fit_t_min=est.t_min, fit_t_max=est.t_max, D_eff_g_cells=est.g_cells,
-              neighbour_spacing=cb.spacing, cage_lag=cb.lag, cage_msd_ratio=cb.ratio,
-              cage_msd_ratio_err=cb.ratio_err, cage_broken_probability=cb.p_broken,
-              cage_d_eff_bound=cb.d_eff_bound(v0, Dr), F_s_window=cb.fs, tau_alpha=cb.tau_alpha,
+              **cb.scalars(v0, Dr),
               D_eff_cr=conv(cb.D_cr), D_eff_cr_err=conv(cb.D_cr_err),
               n_frames=float(eq.size), t_start=float(traj.time[frames[0]]),
               t_end=float(traj.time[frames[-1]]), t_equilibrated=float(traj.time[eq[0]]))
@@ -360,7 +358,7 @@ def cage_evidence(sc: dict) -> tuple[float, str]:
     if not (np.isfinite(ratio) and np.isfinite(p)):
         return float("nan"), "cage test not possible (too few frames or cells)"
     where = f"cage-relative MSD {ratio:.3g} +- {err:.2g} a^2 over {lag:.4g} time units"
-    if not (np.isfinite(bound) and bound >= cage.BOUND_FACTOR * diffusion.D_EFF_SOLID):
+    if not cage.bounds_d_eff(bound):
         return float("nan"), (f"{where}; a broken cage here bounds D_eff only above {bound:.2g}, "
                               f"less than {cage.BOUND_FACTOR:g} x the solid threshold")
     if p >= 0.5:
@@ -458,15 +456,6 @@ def label_summary(sc: dict) -> str:
     if name in ("undetermined", "unknown"):
         return f"{name}: {sc.get('phase_reason', '')}"
     return f"{name} (P = {float(sc['phase_confidence']):.3f})"
-
-
-def _read_status(run_dir: Path) -> dict | None:
-    try:
-        with open(run_dir / STATUS_FILE) as fh:
-            d = json.load(fh)
-        return d if isinstance(d, dict) else None
-    except (OSError, ValueError):
-        return None
 
 
 def _record_failure(traj_path: Path, reason: str) -> None:
