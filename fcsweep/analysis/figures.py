@@ -535,7 +535,10 @@ def d_eff_curves(ds, *, select=None, ax=None):
     (fit noise in a solid).
 
     Values the label rule did not accept (phase undetermined or unknown at that point)
-    are hollow markers, decided ones filled; a legend says so when both occur.
+    are hollow markers, decided ones filled; a legend says so when both occur. Where the
+    dataset has ``D_eff_cr``, the cage-relative D_eff on which the rule tests "solid" is
+    drawn too (dashed, squares): a crystal's plain D_eff can stay above 1e-3 while its
+    cages hold.
 
     Parameters
     ----------
@@ -556,6 +559,8 @@ def d_eff_curves(ds, *, select=None, ax=None):
     eta, v0 = D["eta"].values.astype(float), D["v0"].values
     own = ax is None
     fig, ax = _axes(ax, (COLUMN, 2.7))
+    cr = _plane(ds, "D_eff_cr", ("v0", "eta"), select).values if "D_eff_cr" in ds else None
+    cr_err = _err(ds, "D_eff_cr", ("v0", "eta"), select) if cr is not None else None
     hollow_any = filled_any = False
     for k, col in enumerate(_colors(len(v0))):
         y = D.values[k]
@@ -571,10 +576,15 @@ def d_eff_curves(ds, *, select=None, ax=None):
         if (ok & ~acc).any():
             ax.plot(eta[ok & ~acc], y[ok & ~acc], "o", mfc="w", mec=col, mew=1.0, gid="not_accepted")
             hollow_any = True
+        if cr is not None and np.isfinite(cr[k]).any():
+            c = np.isfinite(cr[k])
+            ax.errorbar(eta[c], cr[k][c], yerr=None if cr_err is None else cr_err[k][c], fmt="s--", color=col,
+                        ms=3.0, capsize=1.5, lw=0.8, gid="cage_relative")
     ax.axhline(D_EFF_SOLID, color="k", ls=":", lw=1.0)
     ax.text(0.99, D_EFF_SOLID, r"solid below $10^{-3}$", transform=ax.get_yaxis_transform(), fontsize=6.5,
             ha="right", va="top", zorder=1.5)
-    vals = D.values[np.isfinite(D.values)]
+    vals = np.concatenate([D.values.ravel()] + ([] if cr is None else [cr.ravel()]))
+    vals = vals[np.isfinite(vals)]
     if vals.size and (vals <= 0).any():  # fit noise makes a solid's D_eff <= 0: symlog keeps it
         ax.set_yscale("symlog", linthresh=1e-4, linscale=0.5)
     else:
@@ -584,10 +594,15 @@ def d_eff_curves(ds, *, select=None, ax=None):
         _tidy_log(ax)
     _eta_axis(ax, eta)
     ax.set_ylabel(r"$D_{\rm eff} = D_s / D_0$")
+    marks = []
     if hollow_any:
         marks = [Line2D([], [], marker="o", ls="none", color="0.3", mfc="w", label="undetermined label")]
         if filled_any:
             marks.insert(0, Line2D([], [], marker="o", ls="none", color="0.3", label="label decided"))
+    if cr is not None and np.isfinite(cr).any():
+        marks.append(Line2D([], [], marker="s", ms=3.0, ls="--", lw=0.8, color="0.3",
+                            label="cage-relative (solid test)"))
+    if marks:
         ax.legend(handles=marks, loc="best", handletextpad=0.2)
     if own:
         ax.set_title(caption(ds, select, _caption_chars(ax)), fontsize=CAPTION_SIZE, loc="left")
