@@ -28,6 +28,7 @@ from .kernels.api import param_vector
 from .kernels.workspace import quadrature_code, workspace_for
 from .model.integrators import DEFAULT_INTEGRATOR, INTEGRATORS, contact_parameters, integrator_problem
 from .model.lattice import hexagonal_lattice, lattice_box
+from .model.parameters import DEFAULTS, PARAMETERS, SIGNS
 from .model.shape import ADMISSIBLE_BOUND, PROJECTION_MARGIN, contour_points_problem, dt_problem
 
 __all__ = ["INTEGRATORS", "SimParams", "Simulation", "SimulationError", "State"]
@@ -51,45 +52,44 @@ class SimulationError(RuntimeError):
 class SimParams:
     """Every parameter that determines a run (with ``seed``).
 
-    Defaults are those of docs/model.md; ``Dr`` is not given in the paper (see docs/model.md).
+    Fields, defaults and single-value bounds are the rows of the parameter table
+    :data:`fcsweep.model.parameters.PARAMETERS` (docs/model.md); ``Dr`` is not given in the
+    paper (see docs/model.md).
     """
 
     N: int
     eta: float
     v0: float
     seed: int
-    Dr: float = 0.01
-    density: float = 0.95
-    dt: float = 5e-3
-    contour_points: int = 40
-    modes: int = 6
-    quadrature: str = "arc"
-    R0: float = 1.0
-    mu_theta: float = 1.0
-    mu_shape: float = 1.0
-    integrator: str = DEFAULT_INTEGRATOR
+    Dr: float = DEFAULTS["Dr"]
+    density: float = DEFAULTS["density"]
+    dt: float = DEFAULTS["dt"]
+    contour_points: int = DEFAULTS["contour_points"]
+    modes: int = DEFAULTS["modes"]
+    quadrature: str = DEFAULTS["quadrature"]
+    R0: float = DEFAULTS["R0"]
+    mu_theta: float = DEFAULTS["mu_theta"]
+    mu_shape: float = DEFAULTS["mu_shape"]
+    integrator: str = DEFAULTS["integrator"]
 
     def __post_init__(self):
-        checks = [
-            ("eta", self.eta >= 0, ">= 0"),
-            ("v0", self.v0 >= 0, ">= 0"),
-            ("Dr", self.Dr >= 0, ">= 0"),
-            ("density", 0 < self.density < 1, "in (0, 1)"),
-            ("dt", self.dt > 0, "> 0"),
-            ("contour_points", self.contour_points >= 8, ">= 8"),
-            ("modes", self.modes == 0 or self.modes >= 2, "0 (rigid discs) or >= 2"),
-            ("R0", self.R0 > 0, "> 0"),
-            ("mu_theta", self.mu_theta >= 0, ">= 0"),
-            ("mu_shape", self.mu_shape >= 0, ">= 0"),
-        ]
-        for name, ok, allowed in checks:
+        for name, p in PARAMETERS.items():
+            value = getattr(self, name)
+            if name == "contour_points":
+                ok, allowed = value >= p.range[0], f">= {p.range[0]}"
+            elif name == "modes":
+                ok, allowed = value == 0 or value >= 2, "0 (rigid discs) or >= 2"
+            elif p.sign:
+                ok, allowed = p.sign_ok(value), SIGNS[p.sign][2]
+            else:
+                continue
             if not ok:
-                raise ValueError(f"{name} must be {allowed}; got {getattr(self, name)!r}")
+                raise ValueError(f"{name} must be {allowed}; got {value!r}")
         quadrature_code(self.quadrature)
         problem = integrator_problem(self.integrator, self.quadrature, self.modes)
         if problem:
             raise ValueError(problem)
-        for name in ("eta", "v0", "Dr", "dt", "R0", "mu_theta", "mu_shape"):
+        for name in (n for n, p in PARAMETERS.items() if p.type is float):
             if not math.isfinite(getattr(self, name)):
                 raise ValueError(f"{name} must be finite; got {getattr(self, name)!r}")
         problem = contour_points_problem(self.contour_points, self.modes) or dt_problem(
@@ -171,18 +171,24 @@ class Simulation:
 
     # ------------------------------------------------------------------ construction
     @classmethod
-    def from_lattice(cls, N, *, eta, v0, Dr=0.01, seed, density=0.95, dt=5e-3, contour_points=40, modes=6,
-                     quadrature="arc", R0=1.0, mu_theta=1.0, mu_shape=1.0,
-                     integrator=DEFAULT_INTEGRATOR) -> "Simulation":
+    def from_lattice(cls, N, *, seed, **params) -> "Simulation":
         """Cells on the n x n hexagonal lattice, circular, with uniform random polarity.
 
-        Parameters are those of :class:`SimParams`; N must be n*n with n even;
-        ``integrator`` is one of :data:`INTEGRATORS`.
+        Parameters
+        ----------
+        N : int
+            Number of cells, n*n with n even.
+        seed : int
+            Seed of the noise and of the initial polarities.
+        **params
+            The other model parameters by name (``eta`` and ``v0`` required; the rest
+            default to :data:`fcsweep.model.parameters.DEFAULTS`): the fields of
+            :class:`SimParams`, each converted to its declared type.
         """
-        p = SimParams(N=int(N), eta=float(eta), v0=float(v0), seed=int(seed), Dr=float(Dr),
-                      density=float(density), dt=float(dt), contour_points=int(contour_points),
-                      modes=int(modes), quadrature=str(quadrature), R0=float(R0),
-                      mu_theta=float(mu_theta), mu_shape=float(mu_shape), integrator=str(integrator))
+        unknown = sorted(set(params) - set(PARAMETERS) | ({"N"} & set(params)))
+        if unknown:
+            raise TypeError(f"from_lattice() got unexpected keyword arguments {unknown}")
+        p = SimParams(N=int(N), seed=int(seed), **{k: PARAMETERS[k].type(v) for k, v in params.items()})
         pos, box = hexagonal_lattice(p.N, p.density, p.R0)
         rng = np.random.Generator(np.random.PCG64(p.seed))
         theta = rng.uniform(0.0, 2.0 * np.pi, p.N)

@@ -40,8 +40,10 @@ from fcsweep.analysis.phase import (KTHNY_FLAGS, KTHNY_UNDETERMINED, MIN_CONFIDE
 from fcsweep.analysis.cage import bounds_d_eff, broken_probability
 from fcsweep.analysis.percolation import FSS_BOOTSTRAP, fisher_observables, fss_collapse
 from fcsweep.analysis.stats import combine
+from fcsweep.io.observables import OBSERVABLES, REPLICATE_REDUCED, RUN_SCALARS, TEXTS
 from fcsweep.io.status import read_status
 from fcsweep.io.sweepdir import run_path, run_state
+from fcsweep.model.parameters import PARAMETERS
 from fcsweep.analysis.pipeline import (ANALYSIS_ERROR_FILE, ANALYSIS_FILE, CURVES, DATASET_FILE,
                                       read_analysis)
 
@@ -50,136 +52,16 @@ STATUS_FLAGS = {0: "analysed", 1: "not_analysed", 2: "failed", 3: "running", 4: 
                 5: "missing", 6: "analysis_failed"}
 _RUN_STATUS = {"failed": 2, "running": 3, "pending": 4}
 
-#: (long_name, units) of every coordinate and variable; lengths in R0, times in the
-#: model's time unit (R0 / (mobility x force unit)), both reduced, hence units "1".
-META = {
-    "eta": ("membrane tension eta", "1"),
-    "v0": ("self-propulsion speed v0 (R0 per time unit)", "1"),
-    "N": ("number of cells", "1"),
-    "replicate": ("replicate index (independent noise)", "1"),
-    "lag_time": ("MSD lag time (model time units)", "1"),
-    "r": ("pair distance, bin centre (units of R0)", "1"),
-    "dx": ("pair separation along the mean hexatic axis, bin centre (units of R0)", "1"),
-    "q_bin": ("shape index q, bin centre", "1"),
-    "q_bin_bounds": ("shape index q, bin edges (CF bounds: units inherited from q_bin)", ""),
-    "cluster_size": ("defect cluster size (cells)", "1"),
-    "D_eff": ("effective diffusion D_s / D0, D0 = v0^2 / (2 Dr)", "1"),
-    "D_eff_err": ("1-sigma error of D_eff: the cell error, or the larger of it and the time-block error "
-                  "with 4 or more time blocks", "1"),
-    "D_eff_err_time": ("error of D_eff from the scatter of time blocks", "1"),
-    "D_eff_err_cells": ("error of D_eff from the scatter of the cells' own MSD slopes, counted with the spatial "
-                        "inefficiency D_eff_g_cells", "1"),
-    "D_eff_g_cells": ("spatial statistical inefficiency of the squared displacements: N / g cells move "
-                      "independently", "1"),
-    "neighbour_spacing": ("neighbour spacing a of a triangular lattice at the cells' density (units of R0)", "1"),
-    "cage_lag": ("lag of the cage-breaking test: the whole analysed window (time units)", "1"),
-    "cage_msd_ratio": ("cage-relative mean squared displacement at cage_lag over a^2 (> 1: cages broken)", "1"),
-    "cage_msd_ratio_err": ("1-sigma error of cage_msd_ratio (spatially contiguous cell blocks)", "1"),
-    "cage_broken_probability": ("probability that cage_msd_ratio > 1", "1"),
-    "cage_d_eff_bound": ("D_eff a broken cage stands for: a^2 / (4 cage_lag D0)", "1"),
-    "F_s_window": ("self-intermediate scattering function of cage-relative displacements at k = 2 pi / a "
-                   "and the lag cage_lag", "1"),
-    "D_eff_cr": ("cage-relative D_eff: a quarter of the late slope of the cage-relative MSD over D0 (the "
-                 "solid test)", "1"),
-    "D_eff_cr_err": ("1-sigma error of D_eff_cr (spatially contiguous cell blocks)", "1"),
-    "tau_alpha": ("structural relaxation time: lag where F_s first falls below 1/e (time units; NaN: not "
-                  "within the window)", "1"),
-    "cage_lag_time": ("lag time of the cage-relative curves F_s and cage_msd (time units)", "1"),
-    "F_s": ("self-intermediate scattering function F_s(2 pi / a, t) of cage-relative displacements", "1"),
-    "cage_msd": ("cage-relative mean squared displacement (R0^2)", "1"),
-    "D_eff_late": ("D_eff from the upper half of the MSD fit window (settling check)", "1"),
-    "D_eff_late_err": ("1-sigma error of D_eff_late", "1"),
-    "D_eff_long": ("D_eff at another block length: the whole run, or half blocks (settling check)", "1"),
-    "D_eff_long_err": ("1-sigma error of D_eff_long", "1"),
-    "msd_diffusive": ("1 if the MSD slope has settled within the run, else 0", "1"),
-    "msd_long_enough": ("1 if a time block spans at least min_block_persistence / Dr, else 0", "1"),
-    "n_time_blocks": ("number of time blocks of the D_eff estimate", "1"),
-    "block_span": ("length of one time block of the D_eff estimate (time units)", "1"),
-    "t_equilibrated": ("start of the frames used for D_eff after equilibration detection", "1"),
-    "D_s": ("long-time self-diffusion coefficient (R0^2 per time unit)", "1"),
-    "D_s_err": ("1-sigma error of D_s", "1"),
-    "D0": ("free active diffusion v0^2 / (2 Dr) (R0^2 per time unit)", "1"),
-    "fit_t_min": ("start of the MSD fit window (time units)", "1"),
-    "fit_t_max": ("end of the MSD fit window (time units)", "1"),
-    "q_mean": ("mean shape index <q> over cells and analysed frames", "1"),
-    "q_std": ("standard deviation of the shape index", "1"),
-    "q_mean_err": ("1-sigma error of q_mean (autocorrelation of the frame series)", "1"),
-    "q_frac_above": ("fraction of cells with q > 3.81", "1"),
-    "q_frac_above_err": ("1-sigma error of q_frac_above", "1"),
-    "q_hist": ("probability density of the shape index", "1"),
-    "rho_d": ("defect fraction: cells with != 6 Voronoi neighbours / N", "1"),
-    "rho_d_err": ("1-sigma error of rho_d (autocorrelation of the frame series)", "1"),
-    "largest_cluster_fraction": ("largest defect cluster size / N, frame average", "1"),
-    "largest_cluster_fraction_err": ("1-sigma error of largest_cluster_fraction", "1"),
-    "cluster_size_distribution": ("number of defect clusters of each size, pooled over the "
-                                  "n_structure_frames analysed frames", "1"),
-    "psi6": ("global hexatic order |Psi6| = |<psi6_i>|, frame average", "1"),
-    "psi6_err": ("1-sigma error of psi6 (autocorrelation of the frame series)", "1"),
-    "msd": ("drift-subtracted mean squared displacement (R0^2)", "1"),
-    "G6": ("bond-orientational correlation Re <psi6_i psi6_j*>(r)", "1"),
-    "Gr": ("translational correlation G_r(dx, 0) along the mean hexatic axis, ideal gas = 1", "1"),
-    "phase": ("phase label: solid if D_eff < 1e-3, else soft fluid if <q> > 3.81, else fluid; fluid and "
-              "soft fluid need broken cages, solid a trustworthy D_eff; undetermined below the required "
-              "confidence", "1"),
-    "phase_confidence": ("probability of the most probable phase given the errors", "1"),
-    "phase_reason": ("why the phase label is what it is", ""),
-    "percolated": ("defect percolation label: rho_d > 1/2; undetermined below the required confidence", "1"),
-    "percolated_confidence": ("probability of the most probable percolation label", "1"),
-    "kthny": ("KTHNY label from the decay of G_r(dx, 0) peaks and G6(r): solid (G_r algebraic, eta_T <= 1/3), "
-              "hexatic (G_r short-ranged, G6 algebraic with eta_6 <= 1/4), liquid (both short-ranged)", "1"),
-    "kthny_confidence": ("probability of the KTHNY label given the fit errors", "1"),
-    "kthny_reason": ("why the KTHNY label is what it is", ""),
-    "kthny_point": ("KTHNY label common to the replicates (undetermined when they differ)", "1"),
-    "kthny_point_confidence": ("lowest replicate confidence of kthny_point", "1"),
-    "eta_T": ("algebraic decay exponent of the G_r(dx, 0) - 1 peak envelope", "1"),
-    "eta_T_err": ("1-sigma error of eta_T", "1"),
-    "xi_T": ("exponential decay length of the G_r(dx, 0) - 1 peak envelope (units of R0)", "1"),
-    "xi_T_err": ("1-sigma error of xi_T", "1"),
-    "eta_6": ("algebraic decay exponent of G6(r)", "1"),
-    "eta_6_err": ("1-sigma error of eta_6", "1"),
-    "xi_6": ("exponential decay length of G6(r) (units of R0)", "1"),
-    "xi_6_err": ("1-sigma error of xi_6", "1"),
-    "percolated_reason": ("why the percolation label is what it is", ""),
-    "phase_point": ("phase label of the replicate means", "1"),
-    "phase_point_confidence": ("probability of phase_point given the replicate-mean errors", "1"),
-    "percolated_point": ("percolation label of the replicate mean of rho_d", "1"),
-    "percolated_point_confidence": ("probability of percolated_point", "1"),
-    "seed": ("random seed of the run (decimal string)", ""),
-    "tau_fisher": ("Fisher exponent of the defect cluster sizes (replicates pooled; critical 187/91)", "1"),
-    "tau_fisher_err": ("1-sigma error of tau_fisher", "1"),
-    "tau_fisher_reason": ("why tau_fisher is undetermined or flagged (empty: a usable fit)", ""),
-    "fss_rho_c": ("percolation threshold of rho_d from the finite-size collapse of largest_cluster_fraction "
-                  "over N and eta (critical 1/2)", "1"),
-    "fss_rho_c_err": ("1-sigma bootstrap error of fss_rho_c", "1"),
-    "fss_nu": ("correlation-length exponent nu of the finite-size collapse (critical 4/3)", "1"),
-    "fss_nu_err": ("1-sigma bootstrap error of fss_nu", "1"),
-    "fss_beta": ("order-parameter exponent beta of the finite-size collapse (critical 5/36)", "1"),
-    "fss_beta_err": ("1-sigma bootstrap error of fss_beta", "1"),
-    "fss_quality": ("collapse quality S at the fit (~1: the sizes collapse within their errors)", "1"),
-    "fss_reason": ("why the finite-size collapse is undetermined or flagged (empty: a usable fit)", ""),
-    "status": ("run and analysis status", "1"),
-    "n_frames": ("frames after the transient used for the MSD", "1"),
-    "n_structure_frames": ("frames used for Voronoi, defect and order statistics", "1"),
-    "t_start": ("time of the first analysed frame", "1"),
-    "t_end": ("time of the last analysed frame", "1"),
-    "run_id": ("run identifier (directory name under runs/)", ""),
-}
-SCALAR_VARS = ("D_eff", "D_eff_err", "D_eff_err_time", "D_eff_err_cells", "D_eff_late", "D_eff_late_err",
-               "D_eff_long", "D_eff_long_err",
-               "msd_diffusive", "msd_long_enough", "n_time_blocks", "block_span",
-               "D_s", "D_s_err", "D0", "fit_t_min", "fit_t_max",
-               "q_mean", "q_mean_err", "q_std", "q_frac_above", "q_frac_above_err", "rho_d", "rho_d_err",
-               "largest_cluster_fraction", "largest_cluster_fraction_err", "psi6", "psi6_err",
-               "n_frames", "t_start", "t_end", "t_equilibrated", "phase_confidence", "percolated_confidence",
-               "D_eff_g_cells", "neighbour_spacing", "cage_lag", "cage_msd_ratio", "cage_msd_ratio_err",
-               "cage_broken_probability", "cage_d_eff_bound", "F_s_window", "tau_alpha", "D_eff_cr", "D_eff_cr_err",
-               "eta_T", "eta_T_err", "xi_T", "xi_T_err", "eta_6", "eta_6_err", "xi_6", "xi_6_err", "kthny_confidence")
+#: (long_name, units) of every coordinate and variable: the observable table
+#: (:mod:`fcsweep.io.observables`) and the parameter table (:mod:`fcsweep.model.parameters`).
+META = {**{name: (p.long_name, p.units) for name, p in PARAMETERS.items()},
+        **{name: (o.long_name, o.units) for name, o in OBSERVABLES.items()}}
+#: Per-run numbers of the dataset.
+SCALAR_VARS = RUN_SCALARS
 #: Observables reduced over replicates (``<name>_rmean``, ``_rmean_err``, ``_rchi2``).
-REPLICATE_VARS = ("D_eff", "q_mean", "q_frac_above", "rho_d", "largest_cluster_fraction", "psi6",
-                  "cage_msd_ratio", "D_eff_cr")
+REPLICATE_VARS = REPLICATE_REDUCED
 #: Per-run strings, written as CF character arrays.
-STRING_VARS = ("run_id", "seed", "phase_reason", "percolated_reason", "kthny_reason", "tau_fisher_reason",
-               "fss_reason")
+STRING_VARS = TEXTS
 
 
 def _key(x):
@@ -205,23 +87,8 @@ def _dims(config) -> list[str]:
     return list(CORE_DIMS) + [s for s in swept if s not in CORE_DIMS] + ["replicate"]
 
 
-#: Long names of model parameters that may be swept besides eta, v0 and N.
-PARAMETER_META = {
-    "Dr": ("rotational diffusion D_r (per time unit)", "1"),
-    "density": ("area fraction N pi R0^2 / (Lx Ly)", "1"),
-    "dt": ("Euler-Maruyama time step (time units)", "1"),
-    "modes": ("highest Fourier mode M", "1"),
-    "contour_points": ("contour quadrature points K", "1"),
-    "quadrature": ("contact quadrature rule", ""),
-    "integrator": ("time integrator of the contact forces", ""),
-    "R0": ("radius of the circle of equal area (length unit)", "1"),
-    "mu_theta": ("mobility of the polarity angle", "1"),
-    "mu_shape": ("mobility of the shape modes", "1"),
-}
-
-
 def _attrs(name: str) -> dict:
-    ln, un = META.get(name) or PARAMETER_META.get(name) or (f"swept parameter {name}", "1")
+    ln, un = META.get(name) or (f"swept parameter {name}", "1")
     out = {"long_name": ln}
     if un:
         out["units"] = un

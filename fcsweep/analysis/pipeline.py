@@ -51,6 +51,8 @@ from fcsweep.analysis.stats import time_average
 from fcsweep.analysis.trajectory import TrajectoryError, open_trajectory
 from fcsweep.io import schema
 from fcsweep.io.machine import worker_layout
+from fcsweep.io.observables import CURVES as OBSERVABLE_CURVES
+from fcsweep.io.observables import LABELS, RUN_SCALARS
 from fcsweep.io.sweepdir import run_path, run_state
 
 #: File names of a sweep directory (declared once, in :mod:`fcsweep.io.schema`).
@@ -78,26 +80,16 @@ DEFAULT_SETTINGS = {
     "gr_dx": 0.2,
 }
 
-#: Scalar observables stored as attributes of ``/observables`` in analysis.h5.
-SCALARS = ("D_s", "D_s_err", "D0", "D_eff", "D_eff_err", "D_eff_err_time", "D_eff_err_cells",
-           "D_eff_late", "D_eff_late_err", "D_eff_long", "D_eff_long_err", "msd_diffusive", "msd_long_enough",
-           "n_time_blocks",
-           "block_span", "fit_t_min", "fit_t_max", "D_eff_g_cells",
-           "neighbour_spacing", "cage_lag", "cage_msd_ratio", "cage_msd_ratio_err", "cage_broken_probability",
-           "cage_d_eff_bound", "F_s_window", "tau_alpha", "D_eff_cr", "D_eff_cr_err",
-           "q_mean", "q_mean_err", "q_std", "q_frac_above", "q_frac_above_err", "rho_d", "rho_d_err",
-           "largest_cluster_fraction", "largest_cluster_fraction_err", "psi6", "psi6_err",
-           "n_frames", "t_start", "t_end", "t_equilibrated",
-           "phase", "phase_confidence", "percolated", "percolated_confidence")
+#: Scalar observables stored as attributes of ``/observables`` in analysis.h5: the per-run
+#: numbers and label codes of the observable table (:mod:`fcsweep.io.observables`).
+SCALARS = RUN_SCALARS + LABELS
 #: KTHNY fit results (:func:`fcsweep.analysis.kthny.kthny_fits`) stored per run.
 KTHNY_FIT_KEYS = ("eta_T", "eta_T_err", "xi_T", "xi_T_err", "eta_6", "eta_6_err", "xi_6", "xi_6_err")
 KTHNY_SCALARS = KTHNY_FIT_KEYS + ("kthny", "kthny_confidence")
-SCALARS = SCALARS + KTHNY_SCALARS
 #: Label explanations stored as string attributes of ``/observables``.
 REASONS = ("phase_reason", "percolated_reason", "kthny_reason")
 #: Curves stored as datasets of ``/curves``: name -> coordinate dataset name.
-CURVES = {"msd": "lag_time", "q_hist": "q_bin", "G6": "r", "Gr": "dx",
-          "cluster_size_distribution": "cluster_size", "F_s": "cage_lag_time", "cage_msd": "cage_lag_time"}
+CURVES = OBSERVABLE_CURVES
 
 
 class AnalysisError(RuntimeError):

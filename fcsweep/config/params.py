@@ -1,0 +1,69 @@
+"""Checks of one model parameter value against the declared table
+(:data:`fcsweep.model.parameters.PARAMETERS`), and its canonical form in run ids."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from fcsweep.config.errors import ConfigError, _int, _real, _show
+from fcsweep.model.parameters import INT_PARAMS, PARAMETERS, RANGES, SIGNS, STR_PARAMS
+
+#: Closed ranges of the numeric model parameters (density: lo <= rho < 1), from the table.
+PARAM_RANGES = RANGES
+
+
+def _allowed(name: str) -> str:
+    """What a model parameter may be, as in the range messages (``allowed 1e-06 <= dt <= 1``)."""
+    if name in STR_PARAMS:
+        return f"choose one of {list(STR_PARAMS[name])}"
+    if name == "N":
+        return f"allowed N = n*n with n even, 4 <= N <= {PARAM_RANGES['N'][1]}"
+    if name == "modes":
+        return "allowed 0 (rigid discs) or 2..32"
+    return PARAMETERS[name].range_text()
+
+
+def _check_param(name: str, value, where: str) -> Any:
+    """Validate and canonicalise one model parameter value."""
+    key = f"{where}.{name}"
+    if name in STR_PARAMS:
+        if not isinstance(value, str) or value not in STR_PARAMS[name]:
+            raise ConfigError(f"{key} = {_show(value)} is not allowed; choose one of {list(STR_PARAMS[name])}")
+        return value
+    if name == "N":
+        n = _int(value, key, minimum=4, maximum=PARAM_RANGES["N"][1], allowed=_allowed("N"))
+        from fcsweep.model.lattice import lattice_side
+
+        try:
+            lattice_side(n)
+        except ValueError as exc:
+            raise ConfigError(f"{key} = {value!r}: {exc}") from None
+        return n
+    if name == "modes":
+        m = _int(value, key, minimum=0, allowed=_allowed("modes"))
+        if m == 1 or m > 32:
+            raise ConfigError(f"{key} = {m} is not allowed; modes is 0 (rigid discs) or 2..32")
+        return m
+    if name == "contour_points":
+        return _int(value, key, minimum=8, maximum=PARAM_RANGES["contour_points"][1])
+    x = _real(value, key, _allowed(name))
+    p = PARAMETERS[name]
+    if not p.sign_ok(x):
+        raise ConfigError(f"{key} = {value!r} is out of range; {name} must {SIGNS[p.sign][1]}")
+    return _check_range(name, x, key)
+
+
+def _check_range(name: str, value, key: str):
+    """``value`` if it lies in the declared range of ``name`` (unknown names pass)."""
+    p = PARAMETERS.get(name)
+    if p is None or p.range is None or p.in_range(value):
+        return value
+    raise ConfigError(f"{key} = {_show(value)} is out of range; {p.range_text()}")
+
+
+def _canon_value(name: str, value) -> Any:
+    if name in INT_PARAMS:
+        return int(value)
+    if name in STR_PARAMS:
+        return str(value)
+    return repr(float(value))

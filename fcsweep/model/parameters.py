@@ -1,0 +1,178 @@
+"""The model parameters, declared once.
+
+Every parameter that determines a run is one :class:`Parameter` row of :data:`PARAMETERS`:
+its type, default, allowed range, units and names.  From this table come the config
+defaults and range checks (:mod:`fcsweep.config`), the defaults and checks of
+:class:`fcsweep.simulation.SimParams`, the NetCDF attributes of swept coordinates
+(:mod:`fcsweep.analysis.aggregate`), the JSON Schema editors read (``fcsweep schema``)
+and the parameter table of configs/README.md (:func:`markdown_table`, checked by the
+tests).  What involves several parameters at once (N = n*n with n even, K > 2M, the
+tension limit of dt, the step bounds of v0*dt and Dr*dt) is checked where it is computed
+(:mod:`fcsweep.model.shape`, :func:`fcsweep.config.check_runnable`).
+
+Lengths are in units of R0, times in units of tau = R0 / (mu F) (docs/model.md); both
+are reduced, so the CF ``units`` written to NetCDF are "1" for numbers.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from fcsweep.model.integrators import DEFAULT_INTEGRATOR, INTEGRATORS
+from fcsweep.model.rates import QUADRATURES
+
+__all__ = ["Parameter", "PARAMETERS", "DEFAULTS", "INT_PARAMS", "STR_PARAMS", "RANGES", "markdown_table"]
+
+#: The physical bounds a parameter may have, checked before its range: name -> (test,
+#: how the config error reads it, how SimParams' error reads it).
+SIGNS = {
+    ">= 0": (lambda x: x >= 0, "be >= 0", ">= 0"),
+    "> 0": (lambda x: x > 0, "be > 0", "> 0"),
+    "in (0, 1)": (lambda x: 0 < x < 1, "lie in (0, 1)", "in (0, 1)"),
+}
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One model parameter.
+
+    Attributes
+    ----------
+    name : str
+        Config key and :class:`~fcsweep.simulation.SimParams` field.
+    type : type
+        ``int``, ``float`` or ``str``.
+    default : object
+        Default value; ``None``: every sweep must give it (in ``model`` or ``grid``).
+    range : tuple of float, optional
+        Closed bounds ``(lo, hi)`` of a number (``hi`` open when ``upper_open``); the
+        lower bounds of density and dt catch underflowed values (1e-320).
+    sign : str
+        Physical bound checked first, a key of :data:`SIGNS` ("" for none).
+    choices : tuple of str
+        Allowed values of a string parameter.
+    unit : str
+        Unit in the model's reduced units (R0, tau), for the docs.
+    long_name : str
+        CF long name of the swept coordinate in the NetCDF dataset.
+    doc : str
+        One line for editors (the JSON Schema description).
+    meaning, allowed, default_doc : str
+        The cells of configs/README.md's parameter table (``default_doc``: when the
+        default needs words).
+    """
+
+    name: str
+    type: type
+    default: Any
+    long_name: str
+    doc: str
+    meaning: str
+    allowed: str
+    range: tuple[float, float] | None = None
+    upper_open: bool = False
+    sign: str = ""
+    choices: tuple[str, ...] = ()
+    unit: str = "1"
+    default_doc: str = ""
+
+    @property
+    def units(self) -> str:
+        """CF units attribute: "1" for numbers (reduced units), "" for strings."""
+        return "" if self.type is str else "1"
+
+    def sign_ok(self, value) -> bool:
+        """Whether ``value`` satisfies the physical bound (:attr:`sign`)."""
+        return not self.sign or SIGNS[self.sign][0](value)
+
+    def in_range(self, value) -> bool:
+        """Whether a number lies in :attr:`range`."""
+        lo, hi = self.range
+        return lo <= value and (value < hi if self.upper_open else value <= hi)
+
+    def range_text(self) -> str:
+        """The range as the config errors write it: ``allowed 1e-06 <= dt <= 1``."""
+        lo, hi = self.range
+        return f"allowed {lo:g} <= {self.name} {'<' if self.upper_open else '<='} {hi:g}"
+
+
+#: The model parameters, in the order run parameters are stored.
+PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
+    Parameter("N", int, None, "number of cells",
+              "number of cells, an n x n hexagonal lattice: n*n with n even (16, 36, 64, ..., 1024)",
+              "number of cells, an n × n hexagonal lattice",
+              "n² with n even (16, 36, 64, …, 1024, …), ≤ 10⁶", range=(4, 10**6), unit="cells"),
+    Parameter("eta", float, None, "membrane tension eta", "membrane tension",
+              "membrane tension η", "0 … 10³", range=(0.0, 1e3), sign=">= 0", unit="F"),
+    Parameter("v0", float, None, "self-propulsion speed v0 (R0 per time unit)",
+              "self-propulsion speed (v0*dt within the step bound)", "self-propulsion speed",
+              "0 … 10³, and v0·dt within the step bound below", range=(0.0, 1e3), sign=">= 0", unit="R0/τ"),
+    Parameter("Dr", float, 0.01, "rotational diffusion D_r (per time unit)", "rotational diffusion (Dr*dt <= 0.1)",
+              "rotational diffusion", "0 … 10³, and D_r·dt ≤ 0.1", range=(0.0, 1e3), sign=">= 0", unit="1/τ"),
+    Parameter("density", float, 0.95, "area fraction N pi R0^2 / (Lx Ly)", "area fraction",
+              "area fraction ρ", "10⁻⁶ ≤ ρ < 1", range=(1e-6, 1.0), upper_open=True, sign="in (0, 1)"),
+    Parameter("dt", float, 5e-3, "Euler-Maruyama time step (time units)",
+              "time step (also below the tension limit 1.5/lambda_M)", "time step",
+              "10⁻⁶ ≤ dt ≤ 1 and ≤ 1.5/λ_M, λ_M = π μ_shape η R0 (M² − 1), at every grid point (the explicit "
+              "step amplifies the stiffest shape mode above 2/λ_M; η = 0.1: ≤ 0.136, η = 1: ≤ 0.0136; no limit "
+              "for `modes: 0`)", range=(1e-6, 1.0), sign="> 0", unit="τ"),
+    Parameter("contour_points", int, 40, "contour quadrature points K", "contour quadrature points K (> 2 modes)",
+              "contour quadrature points K", "integer 8 … 4096 and > 2 M (fewer alias mode M)", range=(8, 4096),
+              unit="points"),
+    Parameter("modes", int, 6, "highest Fourier mode M", "highest Fourier mode M: 0 (rigid discs) or 2..32",
+              "highest Fourier mode M", "0 (rigid discs) or 2..32", range=(0, 32)),
+    Parameter("quadrature", str, "arc", "contact quadrature rule", "contact quadrature (binary: the paper's)",
+              "contact quadrature", "`binary` (paper), `linear`, `arc`; not sweepable with `modes: 0` (no effect)",
+              choices=tuple(QUADRATURES), unit="",
+              default_doc="`arc` (see the speed-against-error study; `binary` reproduces the paper)"),
+    Parameter("R0", float, 1.0, "radius of the circle of equal area (length unit)",
+              "radius of the circle of equal area", "radius of the circle of equal area", "10⁻³ … 10³",
+              range=(1e-3, 1e3), sign="> 0", unit="length unit"),
+    Parameter("mu_theta", float, 1.0, "mobility of the polarity angle", "mobility of the polarity angle",
+              "mobility of θ", "0 … 10³", range=(0.0, 1e3), sign=">= 0", unit="1/(F R0 τ)"),
+    Parameter("mu_shape", float, 1.0, "mobility of the shape modes", "mobility of the shape modes",
+              "mobility of the shape modes", "0 … 10³", range=(0.0, 1e3), sign=">= 0", unit="1/(F R0 τ)"),
+    Parameter("integrator", str, DEFAULT_INTEGRATOR, "time integrator of the contact forces",
+              "time step scheme (euler: the paper's)", "time step scheme",
+              "`euler` (the paper's explicit Euler–Maruyama), `contact-implicit` (each contact's normal "
+              "relaxation implicit: contacts do not chatter; `fcsweep.model.integrators`), `contact-jacobi` (the "
+              "same with each contact's approach rate from the other forces, two Jacobi sweeps per step; needs "
+              "`quadrature: arc` and `modes` ≥ 2, refused otherwise). Part of the run id only when not `euler`, "
+              "so ids of existing sweeps do not change", choices=tuple(INTEGRATORS), unit=""),
+)}
+
+#: name -> default (``None``: must be given).
+DEFAULTS: dict[str, Any] = {name: p.default for name, p in PARAMETERS.items()}
+#: Integer parameters.
+INT_PARAMS = tuple(name for name, p in PARAMETERS.items() if p.type is int)
+#: String parameters and their allowed values.
+STR_PARAMS = {name: p.choices for name, p in PARAMETERS.items() if p.type is str}
+#: Bounds of the numeric parameters.
+RANGES: dict[str, tuple[float, float]] = {name: p.range for name, p in PARAMETERS.items() if p.range}
+
+
+def _default_cell(p: Parameter) -> str:
+    if p.default_doc:
+        return p.default_doc
+    if p.default is None:
+        return "—"
+    if p.type is str:
+        return f"`{p.default}`"
+    return repr(p.default) if p.type is float and not (0 < abs(p.default) < 1e-2) else f"{p.default:g}"
+
+
+def markdown_table() -> str:
+    """The parameter table of configs/README.md (key, meaning, unit, allowed, default).
+
+    Returns
+    -------
+    str
+        Markdown, one row per parameter, ending with a newline.
+    """
+    rows = ["| key | meaning | unit | allowed | default |", "|---|---|---|---|---|"]
+    for p in PARAMETERS.values():
+        unit = p.unit if p.unit not in ("", "1") else "–"
+        rows.append(f"| `{p.name}` | {p.meaning} | {unit} | {p.allowed} | {_default_cell(p)} |")
+    return "\n".join(rows) + "\n"
+
