@@ -222,7 +222,7 @@ def test_translational_correlation_keeps_negative_values():
 def test_palettes_are_colour_blind_safe():
     okabe = {c.lower() for c in plots.OKABE_ITO.values()}
     assert {plots.PHASE_COLORS[w][0].lower() for w in ("solid", "fluid", "soft_fluid")} <= okabe
-    rgb = plots._colors(6)[:, :3]
+    rgb = plots.common._colors(6)[:, :3]
     luminance = rgb @ np.array([0.2126, 0.7152, 0.0722])
     assert luminance.max() < 0.8  # viridis stops before its pale yellow end (luminance 0.87)
 
@@ -415,7 +415,7 @@ def test_snapshot_title_has_model_units(tmp_path, monkeypatch):
     import fcsweep.analysis.trajectory as trajectory
 
     monkeypatch.setattr(trajectory, "open_trajectory", lambda p: _FakeTrajectory())
-    title = plots._frame_title(_FakeTrajectory(), 1, np.zeros(16, bool))
+    title = plots.frames._frame_title(_FakeTrajectory(), 1, np.zeros(16, bool))
     assert rf"t = 2.5 {plots.TIME_UNIT}" in title and r"$\eta$ = 0.05 $F$" in title and r"0.03 $\mu F$" in title
     paths = plots.snapshot_run(tmp_path / "trajectory.h5", 1)
     assert all(p.exists() for p in paths)

@@ -21,7 +21,7 @@ def _imports(path: Path) -> set[str]:
     return out
 
 
-@pytest.mark.parametrize("path", sorted((PKG / "analysis").glob("*.py")), ids=lambda p: p.name)
+@pytest.mark.parametrize("path", sorted((PKG / "analysis").rglob("*.py")), ids=lambda p: str(p.relative_to(PKG)))
 def test_analysis_does_not_import_sweep_or_cli(path):
     bad = {m for m in _imports(path) if m.startswith(("fcsweep.sweep", "fcsweep.cli"))}
     assert not bad, f"{path.name} imports {bad}"
@@ -36,4 +36,17 @@ def test_nothing_below_the_cli_imports_it(path):
 @pytest.mark.parametrize("path", sorted((PKG / "io").glob("*.py")), ids=lambda p: p.name)
 def test_io_imports_nothing_above_it(path):
     bad = {m for m in _imports(path) if m.startswith("fcsweep.") and not m.startswith("fcsweep.io")}
+    assert not bad, f"{path.name} imports {bad}"
+
+
+@pytest.mark.parametrize("path", sorted((PKG / "model").glob("*.py")), ids=lambda p: p.name)
+def test_model_imports_only_model(path):
+    bad = {m for m in _imports(path) if m.startswith("fcsweep.") and not m.startswith("fcsweep.model")}
+    assert not bad, f"{path.name} imports {bad}"
+
+
+@pytest.mark.parametrize("path", sorted((PKG / "config").glob("*.py")), ids=lambda p: p.name)
+def test_config_sits_on_model_and_io(path):
+    allowed = ("fcsweep.config", "fcsweep.model", "fcsweep.io")
+    bad = {m for m in _imports(path) if m.startswith("fcsweep.") and not m.startswith(allowed)}
     assert not bad, f"{path.name} imports {bad}"

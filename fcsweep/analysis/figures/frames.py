@@ -1,0 +1,269 @@
+"""One frame of one run: cell outlines coloured by q with defects marked
+(:func:`snapshot`, :class:`FrameArtist`), and the files of a run (snapshot, movie)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from matplotlib.collections import PolyCollection
+from matplotlib.colors import Normalize
+import matplotlib.pyplot as plt
+import numpy as np
+
+from fcsweep.analysis.figures.common import COLUMN, OKABE_ITO, STYLE, TIME_UNIT, save_figure
+from fcsweep.model.shape import Q_STAR
+
+
+def cell_polygons(pos, theta, a, b, box, R0=1.0, points=48):
+    """Contours of all cells as polygons, with periodic copies of cells that cross the box.
+
+    Returns
+    -------
+    polys : list of ndarray (points, 2)
+    owner : ndarray of int
+        Cell index of each polygon.
+    """
+    from fcsweep.model.shape import radius
+
+    pos = np.asarray(pos, dtype=float)
+    N = pos.shape[0]
+    phi = 2 * np.pi * np.arange(points) / points
+    if a is None or np.shape(a)[-1] == 0:
+        R = np.full((N, points), R0)
+    else:
+        R, _ = radius(phi, a, b, R0)
+        R = np.atleast_2d(R)
+    ang = np.asarray(theta, dtype=float)[:, None] + phi[None, :]
+    xy = pos[:, None, :] + R[..., None] * np.stack([np.cos(ang), np.sin(ang)], -1)
+    polys, owner = [], []
+    box = np.asarray(box, dtype=float)
+    for i in range(N):
+        lo, hi = xy[i].min(0), xy[i].max(0)
+        for sx in (-1, 0, 1):
+            for sy in (-1, 0, 1):
+                s = np.array([sx, sy]) * box
+                if np.all(hi + s > 0) and np.all(lo + s < box):
+                    polys.append(xy[i] + s)
+                    owner.append(i)
+    return polys, np.asarray(owner, dtype=np.int64)
+
+
+#: Colour scale of q in snapshots and movies: from the circle to well above q*.
+Q_NORM = Normalize(vmin=2 * np.sqrt(np.pi), vmax=4.3)
+
+
+#: Width of a movie frame (a slide-size figure), inches, and its fonts (larger: a
+#: slide is seen from further away than a printed column).
+SLIDE = 6.4
+
+
+SLIDE_STYLE = {**STYLE, "font.size": 11, "axes.titlesize": 11, "axes.labelsize": 12, "legend.fontsize": 10,
+               "xtick.labelsize": 10.5, "ytick.labelsize": 10.5}
+
+
+#: Movie frames are a whole number of these pixel blocks in each direction (the H.264
+#: macro block: other sizes make imageio-ffmpeg rescale and warn).
+MACRO_BLOCK = 16
+
+
+class FrameArtist:
+    """A figure of one frame that can be redrawn with the next frame (for movies).
+
+    Cells are filled by their shape index q (viridis, from the circle's 2 sqrt(pi) to
+    4.3) and outlined in white, so that touching cells of equal q stay apart; defect
+    cells (Voronoi neighbours != 6) are outlined in vermillion with a dot at the centroid.
+
+    Parameters
+    ----------
+    box : array_like (2,)
+        Box lengths in R0.
+    width : float
+        Figure width, inches (default one paper column; :data:`SLIDE` for movies).
+    ax : matplotlib.axes.Axes, optional
+        Draw into this Axes instead of a new figure.
+    dpi : int, optional
+        Make an off-screen figure (Agg, not registered with pyplot) of exactly this
+        resolution whose pixel sizes are multiples of :data:`MACRO_BLOCK` (movie frames).
+    style : dict, optional
+        Matplotlib settings (default :data:`STYLE`; :data:`SLIDE_STYLE` for movies).
+    """
+
+    def __init__(self, box, *, width=COLUMN, ax=None, dpi=None, style=None):
+        self.box = np.asarray(box, dtype=float)
+        style = STYLE if style is None else style
+        self.title_size = 0.85 * float(style.get("axes.titlesize", 8))
+        with plt.rc_context(style):
+            size = (width, (width - 1.0) * self.box[1] / self.box[0] + 0.8)
+            if ax is not None:
+                self.fig, self.ax = ax.figure, ax
+            elif dpi is not None:
+                from matplotlib.backends.backend_agg import FigureCanvasAgg
+                from matplotlib.figure import Figure
+
+                px = [MACRO_BLOCK * int(np.ceil(v * dpi / MACRO_BLOCK)) for v in size]
+                self.fig = Figure(figsize=(px[0] / dpi, px[1] / dpi), dpi=dpi, layout="constrained")
+                FigureCanvasAgg(self.fig)
+                self.ax = self.fig.add_subplot()
+            else:
+                self.fig, self.ax = plt.subplots(figsize=size)
+            self.coll = PolyCollection([], cmap="viridis", norm=Q_NORM)
+            self.ax.add_collection(self.coll)
+            (self.dots,) = self.ax.plot([], [], "o", color=OKABE_ITO["vermillion"], ms=2.0)
+            cb = self.fig.colorbar(self.coll, ax=self.ax, shrink=0.85, pad=0.02, aspect=30)
+            cb.set_label("shape index q")
+            cb.ax.axhline(Q_STAR, color="w", lw=1.2)
+            self.ax.set_xlim(0, self.box[0])
+            self.ax.set_ylim(0, self.box[1])
+            self.ax.set_aspect("equal")
+            self.ax.set_xlabel(r"$x / R_0$")
+            self.ax.set_ylabel(r"$y / R_0$")
+
+    def _cell_points(self) -> float:
+        """Diameter of a cell (2 R0) on the page, points."""
+        return 2.0 * self.ax.get_position().width * self.fig.get_figwidth() * 72.0 / self.box[0]
+
+    def draw(self, pos, theta, a, b, q, defect, title=""):
+        """Replace the drawn frame; returns the figure."""
+        polys, owner = cell_polygons(pos, theta, a, b, self.box)
+        q = np.asarray(q, dtype=float)
+        defect = np.asarray(defect, dtype=bool)
+        d = self._cell_points()
+        lw = float(np.clip(0.05 * d, 0.15, 0.8))  # outlines stay thin next to small cells
+        self.coll.set_verts(polys)
+        self.coll.set_array(q[owner])
+        self.coll.set_edgecolor(np.where(defect[owner, None], [[0.835, 0.369, 0.0, 1.0]], [[1.0, 1.0, 1.0, 0.9]]))
+        self.coll.set_linewidth(np.where(defect[owner], 2.5 * lw, lw))
+        p = np.asarray(pos)
+        self.dots.set_data(p[defect, 0], p[defect, 1])
+        self.dots.set_markersize(float(np.clip(0.2 * d, 1.0, 3.0)))
+        self.ax.set_title(title or f"N = {len(p)}, defect fraction {defect.mean():.2f}", fontsize=self.title_size,
+                          loc="left")
+        return self.fig
+
+    def rgb(self) -> np.ndarray:
+        """The drawn frame as an (H, W, 3) uint8 array."""
+        self.fig.canvas.draw()
+        return np.asarray(self.fig.canvas.buffer_rgba())[..., :3].copy()
+
+
+def snapshot(pos, theta, a, b, box, q, defect, *, R0=1.0, title="", ax=None):
+    """One frame: every cell's contour filled by its shape index q, defect cells
+    (Voronoi neighbours != 6) outlined with a dot at the centroid.
+
+    Parameters
+    ----------
+    pos, theta, a, b : ndarray
+        Centres (in R0), polarity angles and Fourier shape modes of the cells.
+    box : array_like (2,)
+        Box lengths in R0.
+    q, defect : ndarray
+        Shape index and defect flag of every cell.
+    title : str
+        Title (default: N and the defect fraction).
+    ax : matplotlib.axes.Axes, optional
+        Draw into this Axes (else a new figure one column wide).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    art = FrameArtist(box, ax=ax)
+    return art.draw(pos, theta, a, b, q, defect, title)
+
+
+def _frame(traj, k):
+    """(pos, theta, a, b, q, defect) of frame ``k``, lengths in R0."""
+    from fcsweep.analysis import shapes, voronoi
+
+    R0 = float(traj.params.get("R0", 1.0))
+    pos = traj.read("position", [k])[0] / R0
+    box = traj.box / R0
+    theta = traj.read("theta", [k])[0] if "theta" in traj.fields else np.zeros(len(pos))
+    if "shape_a" in traj.fields and "shape_b" in traj.fields:
+        a, b = traj.read("shape_a", [k])[0], traj.read("shape_b", [k])[0]
+    else:
+        a = b = np.zeros((len(pos), 0))
+    q = shapes.shape_indices(a, b)
+    defect = voronoi.defect_mask(voronoi.voronoi_neighbors(pos, box).n_sides)
+    return pos, theta, a, b, q, defect
+
+
+def _frame_title(traj, k, defect) -> str:
+    """Two lines: the run and its parameters, then the time and the defect fraction (model units)."""
+    p = traj.params
+
+    def num(name):
+        v = p.get(name, "?")
+        return f"{float(v):g}" if isinstance(v, (int, float, np.number)) else str(v)
+
+    return (rf"run {p.get('run_id', '')}:  $\eta$ = {num('eta')} $F$,  $v_0$ = {num('v0')} $\mu F$" "\n"
+            rf"t = {traj.time[k]:g} {TIME_UNIT},  $\rho_d$ = {np.mean(defect):.2f}")
+
+
+def snapshot_run(traj_path, frame=-1, stem=None) -> list[Path]:
+    """Draw one frame of a trajectory (cells coloured by q, defects marked)."""
+    from fcsweep.analysis.trajectory import open_trajectory
+
+    traj = open_trajectory(traj_path)
+    k = int(frame) % traj.n_frames
+    pos, theta, a, b, q, defect = _frame(traj, k)
+    fig = FrameArtist(traj.box / float(traj.params.get("R0", 1.0))).draw(
+        pos, theta, a, b, q, defect, _frame_title(traj, k, defect))
+    stem = stem or Path(traj_path).with_name(f"snapshot_frame{k}")
+    return save_figure(fig, stem)
+
+
+def movie_run(traj_path, out=None, *, fps=10, every=1, dpi=120, progress=True) -> Path:
+    """MP4 movie of a trajectory: contours coloured by q, defects marked, one frame per
+    ``every`` recorded frames (H.264 via imageio-ffmpeg), slide-size frames
+    (:data:`SLIDE` inches wide) whose pixel sizes are multiples of 16.
+
+    Parameters
+    ----------
+    traj_path : path-like
+        A ``trajectory.h5``.
+    out : path-like, optional
+        Output file (default ``movie.mp4`` beside the trajectory).
+    fps : int
+        Frames per second of the movie.
+    every : int
+        Stride over the recorded frames.
+    dpi : int
+        Resolution of the rendered frames.
+    progress : bool
+        Show a progress bar (tqdm) on stderr.
+
+    Raises
+    ------
+    ImportError
+        If imageio / imageio-ffmpeg are missing (``pip install 'fcsweep[movie]'``).
+    """
+    try:
+        import imageio.v2 as imageio
+        import imageio_ffmpeg  # noqa: F401 - the writer backend
+    except ImportError as exc:
+        raise ImportError("fcsweep movie needs imageio and imageio-ffmpeg: "
+                          "pip install 'fcsweep[movie]'") from exc
+    from tqdm.auto import tqdm
+
+    from fcsweep.analysis.trajectory import open_trajectory
+
+    traj = open_trajectory(traj_path)
+    out = Path(out) if out is not None else Path(traj_path).with_name("movie.mp4")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    frames = range(0, traj.n_frames, max(int(every), 1))
+    # frames are whole macro blocks (no rescaling by ffmpeg); yuv420p plays everywhere (QuickTime, browsers)
+    art = FrameArtist(traj.box / float(traj.params.get("R0", 1.0)), width=SLIDE, dpi=dpi, style=SLIDE_STYLE)
+    tmp = out.with_name(f".{out.stem}.partial{out.suffix}")
+    try:
+        with imageio.get_writer(tmp, fps=fps, codec="libx264", quality=8, macro_block_size=MACRO_BLOCK,
+                                pixelformat="yuv420p", ffmpeg_log_level="error") as writer:
+            for k in tqdm(frames, desc="movie", unit="frame", disable=not progress):
+                pos, theta, a, b, q, defect = _frame(traj, k)
+                art.draw(pos, theta, a, b, q, defect, _frame_title(traj, k, defect))
+                writer.append_data(art.rgb())
+        tmp.replace(out)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    return out
