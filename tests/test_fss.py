@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from percolation_lattice import cluster_counts
 
-from fcsweep.analysis.percolation import BETA_2D, NU_2D, CollapseFit, fss_collapse, fss_scaled
+from fcsweep.analysis.fss import BETA_2D, NU_2D, CollapseFit, fss_collapse, fss_scaled
 
 #: The exact data: p in 0.40 ... 0.60 (step 0.005), realisations per point for each L.
 SIZES = {24: 300, 48: 150, 96: 60}

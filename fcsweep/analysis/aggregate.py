@@ -38,7 +38,8 @@ from fcsweep import __version__
 from fcsweep.analysis.phase import (KTHNY_FLAGS, KTHNY_UNDETERMINED, MIN_CONFIDENCE, PERCOLATION_FLAGS, PHASE_FLAGS,
                                     classify_percolation, classify_phase, flag_attrs)
 from fcsweep.analysis.cage import bounds_d_eff, broken_probability
-from fcsweep.analysis.percolation import FSS_BOOTSTRAP, fisher_observables, fss_collapse
+from fcsweep.analysis.fss import FSS_BOOTSTRAP, fss_collapse
+from fcsweep.analysis.percolation import fisher_observables
 from fcsweep.analysis.stats import combine
 from fcsweep.io.observables import OBSERVABLES, REPLICATE_REDUCED, RUN_SCALARS, TEXTS
 from fcsweep.io.status import read_status
@@ -382,7 +383,7 @@ def _fss(ds: xr.Dataset, n_bootstrap: int = FSS_BOOTSTRAP) -> None:
     its points are the replicate means ``largest_cluster_fraction_rmean`` (with their
     errors) against ``rho_d_rmean`` over every eta and N, because eta moves rho_d
     through the threshold at fixed v0 while N supplies the sizes
-    (:func:`fcsweep.analysis.percolation.fss_collapse`; the error of rho_d is not used).
+    (:func:`fcsweep.analysis.fss.fss_collapse`; the error of rho_d is not used).
     """
     if ds.sizes.get("N", 1) < 2:
         return

@@ -67,7 +67,7 @@ def fss_collapse_figure(ds, *, select=None, exponents="fit", ax=None):
         ``"fit"``: rho_c, nu and beta of the dataset's ``fss_*`` variables (fitted here
         when the dataset lacks them); ``"paper"``: the exponents of 2-D percolation,
         nu = 4/3 and beta = 5/36, with rho_c fitted for them
-        (:func:`fcsweep.analysis.percolation.fss_collapse` with ``fixed``).
+        (:func:`fcsweep.analysis.fss.fss_collapse` with ``fixed``).
     ax : matplotlib.axes.Axes, optional
         Draw into this Axes (else a new figure one column wide).
 
@@ -75,7 +75,7 @@ def fss_collapse_figure(ds, *, select=None, exponents="fit", ax=None):
     -------
     matplotlib.figure.Figure
     """
-    from fcsweep.analysis.percolation import BETA_2D, NU_2D, fss_collapse, fss_scaled
+    from fcsweep.analysis.fss import BETA_2D, NU_2D, fss_collapse, fss_scaled
 
     if exponents not in ("fit", "paper"):
         raise ValueError(f"exponents must be 'fit' or 'paper', got {exponents!r}")
