@@ -74,6 +74,11 @@ def _say(msg: str) -> None:
     click.echo(f"fcsweep: {msg}", err=True)
 
 
+def _err(line: str) -> None:
+    """Echo a whole line (prefix included) to stderr: the ``say`` of the sweep functions."""
+    click.echo(line, err=True)
+
+
 def _announce(cfg: SweepConfig) -> Path:
     """Print and return the resolved output directory of ``cfg``."""
     out = Path(cfg.output).resolve()
@@ -101,15 +106,11 @@ def _wrong_dir_hint(config, output) -> str:
 def _check_space(cfg: SweepConfig, specs, what: str = "") -> None:
     """Exit 2 unless the output directory can be created and the largest trajectory still
     to write fits in its free space; warn if all of them together may not."""
-    from fcsweep.sweep.space import check_space
+    from fcsweep.sweep.launch import space_code
 
-    try:
-        note = check_space(cfg, specs)
-    except OSError as exc:
-        click.echo(f"fcsweep: {what}{exc.strerror or exc}", err=True)
-        sys.exit(2)
-    if note:
-        click.echo(f"fcsweep: warning: {note}", err=True)
+    code = space_code(cfg, specs, _err, what)
+    if code:
+        sys.exit(code)
 
 
 @click.group(cls=WorkflowGroup, context_settings={"help_option_names": ["-h", "--help"]})
@@ -157,7 +158,7 @@ def simulate(config, output, workers, executor, scheduler, task_index, retry_fai
     compiles the numba kernels (minutes; cached afterwards, see `fcsweep compile`).
     """
     from fcsweep.io.locks import DEFAULT_STALE_AFTER
-    from fcsweep.sweep.executors import run_sweep, select_runs
+    from fcsweep.sweep.executors import select_runs
     from fcsweep.sweep.progress import Progress
 
     cfg = _load(config, output, to_run=True)
@@ -189,51 +190,19 @@ def simulate(config, output, workers, executor, scheduler, task_index, retry_fai
         return
     click.echo(f"fcsweep: {len(specs)} run(s) of {src} -> {out_dir} [{executor}"
                f"{', ' + str(workers) + ' workers' if executor == 'process' else ''}]", err=True)
-    from fcsweep.sweep import interrupt
-    from fcsweep.sweep.executors import unfinished
+    from fcsweep.sweep.launch import simulate_runs
 
     if executor != "dask" and _any_to_compute(cfg, specs, force):  # Dask workers compile on their hosts
         from fcsweep.sweep.warmup import compile_kernels
 
         compile_kernels(None if quiet else _say)
     progress = Progress(len(specs), log_every=log_every, enabled=not quiet)
-    previous = interrupt.install()
-    try:
-        outcomes = run_sweep(cfg, specs, executor=executor, workers=workers, scheduler=scheduler,
-                             progress=progress, force=force, retry_failed=retry_failed,
-                             stale_after=stale_after)
-    except (OSError, TimeoutError) as exc:
-        if executor != "dask":
-            raise
-        click.echo(f"fcsweep: cannot reach the Dask scheduler at {scheduler}: {exc}", err=True)
-        sys.exit(2)
-    finally:
-        progress.close()
-        interrupt.restore(previous)
-    counts = {k: sum(o.outcome == k for o in outcomes) for k in ("done", "skipped", "locked", "failed",
-                                                                   "interrupted")}
-    click.echo(
-        f"fcsweep: {counts['done']} computed, {counts['skipped']} already done, "
-        f"{counts['locked']} held by other processes, {counts['failed']} failed"
-        + (f", {interrupt.interrupted_phrase(outcomes)}" if counts["interrupted"] else ""), err=True)
-    for o in outcomes:
-        if o.outcome == "failed":
-            click.echo(f"  failed: run {o.index} {o.run_id}: {o.message}", err=True)
-    sig = interrupt.requested()
-    if sig is not None:
-        again = " ".join(shlex.quote(a) for a in sys.argv[1:]) or "simulate"
-        click.echo(f"fcsweep: stopped by {interrupt.reason()} ({interrupt.interrupted_phrase(outcomes) or 'no run'}"
-                   f"); resume with: fcsweep {again}", err=True)
-        sys.exit(interrupt.exit_code(sig))
-    lost = unfinished(cfg, outcomes, lock_timeout or DEFAULT_STALE_AFTER)
-    for o in lost:
-        click.echo(f"  unfinished: run {o.index} {o.run_id}: its lock holder stopped without finishing "
-                   f"({o.message}); the next launch computes it", err=True)
-    if counts["failed"]:
-        for line in _failure_advice(outcomes, _config_arg(config, output)):
-            _say(line)
-    if counts["failed"] or lost:
-        sys.exit(1)
+    again = " ".join(shlex.quote(a) for a in sys.argv[1:]) or "simulate"
+    code = simulate_runs(cfg, specs, progress=progress, say=_err, resume=f"fcsweep {again}",
+                         advice_arg=_config_arg(config, output), executor=executor, workers=workers,
+                         scheduler=scheduler, force=force, retry_failed=retry_failed, stale_after=stale_after)
+    if code:
+        sys.exit(code)
 
 
 def _any_to_compute(cfg, specs, force: bool) -> bool:
@@ -242,25 +211,6 @@ def _any_to_compute(cfg, specs, force: bool) -> bool:
 
     return bool(specs) and (force or any((read_status(cfg.run_dir(s.run_id)) or {}).get("status") != "done"
                                          for s in specs))
-
-
-#: Part of the runner's message for a run directory written with other run settings.
-_CONFLICT = "computed with other run settings"
-
-
-def _failure_advice(outcomes, arg: str) -> list[str]:
-    """Advice that fits the failures: other settings (--force / -o) or errors (--retry-failed)."""
-    cmd = f"fcsweep simulate {arg}".rstrip()
-    failed = [o for o in outcomes if o.outcome == "failed"]
-    conflicts = [o for o in failed if _CONFLICT in o.message]
-    out = []
-    if conflicts:
-        out.append(f"{len(conflicts)} run(s) were computed with other run settings than the config has now: "
-                   f"`{cmd} --force` recomputes them, or give another output directory (-o)")
-    if len(conflicts) < len(failed):
-        out.append(f"{len(failed) - len(conflicts)} run(s) failed: fix the cause and rerun with "
-                   f"`{cmd} --retry-failed`")
-    return out
 
 
 def _dry_run(cfg, specs, src, out_dir, processes, force, retry_failed, stale_after, arg) -> None:
@@ -692,23 +642,20 @@ def refine(config, output, rounds, max_points, workers, add_only, quiet):
     run indices printed, for a job array to compute.
     """
     cfg = _load(config, output, to_run=True)
-    failed = 0
-    for k in range(1 if add_only else rounds + 1):
-        if not add_only:
-            failed = _refine_compute(cfg, workers, quiet)
-        path = _refine_analyse(cfg, workers)
-        if k == rounds:
-            break
-        before = len(_runs(cfg))
-        if not _refine_add(cfg, path, max_points):
-            break
-        cfg = _rebind(cfg)  # the runs now include the points just recorded
-        if add_only:
-            last = len(_runs(cfg)) - 1
-            click.echo(f"fcsweep: new runs {before}..{last}, e.g. sbatch --array={before}-{last} "
-                       f"workflows/slurm_array.sh {config}", err=True)
-    if failed:
-        sys.exit(1)
+    from fcsweep.analysis.aggregate import aggregate_sweep
+    from fcsweep.analysis.phase import PERCOLATION_FLAGS, PHASE_FLAGS
+    from fcsweep.analysis.pipeline import analyze_sweep
+    from fcsweep.sweep.refine_loop import refine_loop
+
+    def analyse(c: SweepConfig) -> Path:
+        analyze_sweep(c, workers=workers)
+        return aggregate_sweep(c)
+
+    code = refine_loop(cfg, analyse=analyse, flag_names={"phase": PHASE_FLAGS, "percolated": PERCOLATION_FLAGS},
+                       say=_err, echo=click.echo, rounds=rounds, max_points=max_points, workers=workers,
+                       add_only=add_only, quiet=quiet, config=config)
+    if code:
+        sys.exit(code)
 
 
 def _or_exit(call):
@@ -720,76 +667,9 @@ def _or_exit(call):
         sys.exit(2)
 
 
-def _rebind(cfg: SweepConfig) -> SweepConfig:
-    """``cfg`` with the refinement points now recorded (exit 2 if the file does not fit)."""
-    return _or_exit(cfg.with_refinement)
-
-
 def _runs(cfg: SweepConfig) -> list:
     """The runs of a sweep, refined points included (exit 2 if the refinement file does not fit)."""
     return _or_exit(cfg.runs)
-
-
-def _refine_compute(cfg: SweepConfig, workers: int, quiet: bool) -> int:
-    """Simulate every run not done yet (refine's step 1); returns the number that failed."""
-    from fcsweep.sweep import interrupt
-    from fcsweep.sweep.executors import run_sweep
-    from fcsweep.sweep.progress import Progress
-
-    specs = _runs(cfg)
-    _check_space(cfg, specs)
-    progress = Progress(len(specs), enabled=not quiet)
-    previous = interrupt.install()
-    try:
-        outcomes = run_sweep(cfg, specs, executor="process" if workers > 1 else "serial", workers=workers,
-                             progress=progress)
-    finally:
-        progress.close()
-        interrupt.restore(previous)
-    sig = interrupt.requested()
-    if sig is not None:
-        click.echo(f"fcsweep: stopped by {interrupt.reason()}; run the same command again to go on", err=True)
-        sys.exit(interrupt.exit_code(sig))
-    failed = sum(o.outcome == "failed" for o in outcomes)
-    click.echo(f"fcsweep: {len(specs)} runs ({sum(o.outcome == 'done' for o in outcomes)} computed now, "
-               f"{failed} failed)", err=True)
-    return failed
-
-
-def _refine_analyse(cfg: SweepConfig, workers: int) -> Path:
-    """Analyse and aggregate (refine's step 2); returns the path of phase_diagram.nc."""
-    from fcsweep.analysis.aggregate import aggregate_sweep
-    from fcsweep.analysis.pipeline import analyze_sweep
-
-    analyze_sweep(cfg, workers=workers)
-    path = aggregate_sweep(cfg)
-    click.echo(f"fcsweep: aggregated -> {path}", err=True)
-    return path
-
-
-def _refine_add(cfg: SweepConfig, dataset: Path, max_points: int | None) -> int:
-    """Propose and record one round of points (refine's step 3); returns how many."""
-    import datetime as _dt
-
-    import xarray as xr
-
-    from fcsweep.analysis.phase import PERCOLATION_FLAGS, PHASE_FLAGS
-    from fcsweep.io.refinement import append_round
-    from fcsweep.sweep.refine import point_labels, propose_points
-
-    with xr.open_dataset(dataset) as ds:
-        labels = point_labels(ds, _runs(cfg), cfg.swept)
-    new = propose_points(labels, cfg.swept, log_axes=cfg.log_axes, max_points=max_points,
-                         flag_names={"phase": PHASE_FLAGS, "percolated": PERCOLATION_FLAGS})
-    if not new:
-        click.echo("fcsweep: no neighbours with differing or undetermined labels: nothing to refine", err=True)
-        return 0
-    number = append_round(cfg.output, [p.point for p in new], [p.why for p in new],
-                          _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"))
-    click.echo(f"fcsweep: refinement round {number}: {len(new)} point(s) added", err=True)
-    for p in new:
-        click.echo(f"  {' '.join(f'{a}={v}' for a, v in p.point.items())}: {p.why}")
-    return len(new)
 
 
 def main() -> None:

@@ -12,6 +12,12 @@
 so that the sweep runner handles each fault in one place.  Writes of the failure states
 are best effort: a full disk may refuse even ``status.json``, and the run's lock is
 released whatever happens (the state then reads ``interrupted``, which resumes too).
+
+It also owns every move of the run's files: the checkpoint replaced atomically
+(:meth:`RunDirectory.save_checkpoint`), ``trajectory.h5.partial`` promoted to
+``trajectory.h5`` when the run ends (:meth:`~RunDirectory.promote_partial`) and a finished
+trajectory turned back into a partial one to be extended (:meth:`~RunDirectory.reopen`),
+and the removals (temporaries of killed writers, a restart from step 0, a stale analysis).
 """
 
 from __future__ import annotations
@@ -23,14 +29,14 @@ import shutil
 import socket
 import time
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable, Mapping
 
 from fcsweep.io import schema
-from fcsweep.io.checkpoint import META_PREFIX, load_checkpoint, split_meta
-from fcsweep.io.h5md import verify_trajectory
+from fcsweep.io.checkpoint import META_PREFIX, load_checkpoint, save_checkpoint, split_meta
+from fcsweep.io.h5md import repack, seq_path, set_attrs, verify_trajectory
 from fcsweep.io.locks import DEFAULT_STALE_AFTER, RunLock, lock_info, lock_is_stale
 from fcsweep.io.status import read_status, write_status
-from fcsweep.io.sweepdir import run_state
+from fcsweep.io.sweepdir import atomic_write, fsync_dir, run_state
 
 __all__ = ["RunDirectory", "io_error_cause", "free_bytes", "ensure_free_space", "now_iso"]
 
@@ -181,6 +187,63 @@ class RunDirectory:
                 self.lock.release()
             except OSError:  # pragma: no cover - e.g. the file system went away
                 pass
+
+    # -------------------------------------------------------------------- files
+
+    def remove_temporaries(self) -> None:
+        """Remove the ``.<name>.<pid>.tmp`` files that killed writers left behind."""
+        for tmp in self.path.glob(".*.tmp"):
+            try:
+                tmp.unlink()
+            except OSError:
+                pass
+
+    def remove_analysis(self) -> None:
+        """Remove ``analysis.h5`` and its error file (they describe another trajectory)."""
+        for name in (schema.ANALYSIS, schema.ANALYSIS_ERROR):
+            (self.path / name).unlink(missing_ok=True)
+
+    def remove_trajectory(self, *, analysis: bool = True) -> None:
+        """Remove ``trajectory.h5`` (if there is one) and, if ``analysis``, its analysis."""
+        self.trajectory.unlink(missing_ok=True)
+        if analysis:
+            self.remove_analysis()
+
+    def remove_partial(self) -> None:
+        """Remove ``trajectory.h5.partial`` (a finished trajectory supersedes it)."""
+        self.partial.unlink(missing_ok=True)
+
+    def start_over(self) -> None:
+        """Remove the partial trajectory and the checkpoint: the run restarts from step 0."""
+        self.partial.unlink(missing_ok=True)
+        self.checkpoint.unlink(missing_ok=True)
+
+    def save_checkpoint(self, state: Mapping[str, Any], meta: Mapping[str, Any], *,
+                        before_replace: Callable[[Path], None] | None = None) -> None:
+        """Replace ``checkpoint.npz`` atomically (:func:`fcsweep.io.checkpoint.save_checkpoint`)."""
+        save_checkpoint(self.checkpoint, state, meta, before_replace=before_replace)
+
+    def promote_partial(self) -> None:
+        """Finish the trajectory: ``trajectory.h5.partial`` (already marked complete) is
+        repacked into a fresh file that replaces ``trajectory.h5`` atomically, then the
+        partial file and its write counter are removed."""
+        atomic_write(self.trajectory, lambda tmp: repack(self.partial, tmp))
+        self.partial.unlink()
+        seq_path(self.partial).unlink(missing_ok=True)  # live readers' write counter (io.h5md)
+        fsync_dir(self.path)
+
+    def reopen(self) -> None:
+        """Turn the finished ``trajectory.h5`` back into ``trajectory.h5.partial`` (marked
+        not complete) to be extended; the analysis of the shorter run is removed."""
+        def write(tmp: Path) -> None:
+            repack(self.trajectory, tmp)
+            set_attrs(tmp, schema.PARAMETERS, {"complete": 0, "stop_reason": ""})
+            seq_path(tmp).unlink(missing_ok=True)  # set_attrs's write counter would outlive the rename
+
+        atomic_write(self.partial, write)
+        fsync_dir(self.path)
+        self.remove_analysis()
+        self.trajectory.unlink()
 
     # -------------------------------------------------------------- transitions
 
