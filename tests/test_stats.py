@@ -77,3 +77,18 @@ def test_combine_replicates_checks_errors_against_scatter():
     assert np.mean([c.chi2_dof for c in small]) > 5
     pulls = np.array([(c.mean - truth) / c.err for c in small])
     assert np.std(pulls) == pytest.approx(1.0, abs=0.2)
+
+
+def test_equilibration_cut_of_d_eff_keeps_half_the_frames():
+    """The D_eff window starts at the latest series' equilibration start, but never past the
+    middle of the frames after the transient: a run of 2 x 8/Dr after the transient keeps a
+    window of 8/Dr even when a coarse series' start lands a few frames beyond its half
+    (the N = 1024 crystal at eta = 0.01, v0 = 0.01 read 792 of the 800 time units it needs)."""
+    from fcsweep.analysis.pipeline import equilibrated_frames
+
+    frames = np.arange(200, 1001)  # 801 frames after the transient, 2 time units apart
+    assert equilibrated_frames(frames, [620, 300]).tolist() == list(range(600, 1001))
+    assert (equilibrated_frames(frames, [620])[-1] - equilibrated_frames(frames, [620])[0]) * 2 == 800
+    assert equilibrated_frames(frames, [350, 420]).tolist() == list(range(420, 1001))
+    assert equilibrated_frames(frames, []).tolist() == frames.tolist()
+    assert equilibrated_frames(frames, [0]).tolist() == frames.tolist()

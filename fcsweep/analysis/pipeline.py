@@ -15,7 +15,7 @@ Analysis settings (``DEFAULT_SETTINGS``; stored with every result):
 - ``transient``: fraction of the recorded frames discarded at the start; after it,
   automatic equilibration detection (:mod:`fcsweep.analysis.stats`) on the frame series
   of ``<q>`` and ``rho_d`` may cut more: the MSD uses the frames from the later of the
-  two starts (``t_equilibrated``);
+  two starts (``t_equilibrated``), at most half of them cut (:func:`equilibrated_frames`);
 - D_s from ``max_time_blocks`` time blocks of at least ``min_block_persistence / Dr``,
   fitted to the active-Brownian MSD form from ``fit_start`` x half a block on, error
   from time blocks and the scatter of the cells' own slopes with their spatial inefficiency
@@ -229,9 +229,7 @@ def compute_observables(traj, settings: dict, *, curves: bool = True,
         sc.update(_kthny(None, None, None, None, N, float(settings["label_confidence"]), np.nan))
 
     # --- MSD (all frames, for the curve) and D_eff (from the equilibrated frames)
-    eq = frames[frames >= max(starts)]
-    if eq.size < 3:
-        eq = frames
+    eq = equilibrated_frames(frames, starts)
     x = traj.unwrapped(frames)
     if not np.all(np.isfinite(x)):
         raise AnalysisError(f"{traj.path}: non-finite positions after the transient")
@@ -287,6 +285,34 @@ def compute_observables(traj, settings: dict, *, curves: bool = True,
     extra = {"n_sides_counts": ds["n_sides_counts"], "frames": frames,
              "structure_frames": vf, "shape_frames": sf}
     return sc, cv, extra
+
+
+def equilibrated_frames(frames: np.ndarray, starts) -> np.ndarray:
+    """The frames D_eff and the cage test use: those from the latest equilibration start.
+
+    Each start comes from its own series (``<q>`` on the shape frames, ``rho_d`` on the
+    structure frames), which :func:`fcsweep.analysis.stats.detect_equilibration` cuts by
+    at most half; on their coarser frame grids that half can reach a few frames past the
+    half of ``frames``, so the cut is capped there: at least half of the frames after the
+    transient stay (a run of 2 x 8/Dr after the transient always has a window of 8/Dr).
+
+    Parameters
+    ----------
+    frames : ndarray of int
+        Frame indices after the transient, increasing.
+    starts : sequence of int
+        Frame indices where each series is stationary.
+
+    Returns
+    -------
+    ndarray of int
+    """
+    frames = np.asarray(frames)
+    if frames.size < 3 or not len(starts):
+        return frames
+    start = min(max(starts), frames[(frames.size - 1) // 2])
+    eq = frames[frames >= start]
+    return eq if eq.size >= 3 else frames
 
 
 def _frame_mean(curves: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
