@@ -51,8 +51,7 @@ from fcsweep.analysis.stats import time_average
 from fcsweep.analysis.trajectory import TrajectoryError, open_trajectory
 from fcsweep.io import schema
 from fcsweep.io.machine import worker_layout
-from fcsweep.io.observables import CURVES as OBSERVABLE_CURVES
-from fcsweep.io.observables import LABELS, RUN_SCALARS
+from fcsweep.io.observables import CURVES, LABELS, RUN_SCALARS
 from fcsweep.io.sweepdir import run_path, run_state
 
 #: File names of a sweep directory (declared once, in :mod:`fcsweep.io.schema`).
@@ -88,8 +87,6 @@ KTHNY_FIT_KEYS = ("eta_T", "eta_T_err", "xi_T", "xi_T_err", "eta_6", "eta_6_err"
 KTHNY_SCALARS = KTHNY_FIT_KEYS + ("kthny", "kthny_confidence")
 #: Label explanations stored as string attributes of ``/observables``.
 REASONS = ("phase_reason", "percolated_reason", "kthny_reason")
-#: Curves stored as datasets of ``/curves``: name -> coordinate dataset name.
-CURVES = OBSERVABLE_CURVES
 
 
 class AnalysisError(RuntimeError):
