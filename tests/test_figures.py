@@ -126,6 +126,18 @@ def test_caption_names_system_size_run_length_and_quadrature():
     assert "runs of up to 1000 time units (200,000 steps), stopped when settled" in plots.caption(ds)
 
 
+def test_caption_gives_the_run_lengths_of_extended_runs():
+    # runs extended past the config's 1000 time units (run.until, raised run.steps) are
+    # described by what ran, not by the config
+    ds = synthetic_dataset()
+    t_end = np.full(ds["phase"].shape, 1000.0)
+    t_end.flat[0], t_end.flat[1] = 2000.0, 3500.0
+    ds["t_end"] = (ds["phase"].dims, t_end)
+    assert "runs of 1000-3500 time units" in plots.caption(ds)
+    ds["t_end"] = (ds["phase"].dims, np.full(ds["phase"].shape, 1000.0))
+    assert "runs of 1000 time units (200,000 steps)" in plots.caption(ds)
+
+
 def test_refined_log_grid_labels_do_not_overlap():
     # nine log-spaced eta values (two refinement rounds of 0.01, 0.0316, 0.1): every
     # grid value gets a tick, at most six get a label, in three digits

@@ -198,10 +198,24 @@ def _setting(ds, name, select, cfg):
     return cfg.get("model", {}).get(name)
 
 
+def _run_ends(ds, select) -> np.ndarray:
+    """Finite end times ``t_end`` of the runs on the selection (every run where a
+    swept dimension is not selected); empty without ``t_end``."""
+    if "t_end" not in ds:
+        return np.array([])
+    da = ds["t_end"]
+    for d, v in (select or {}).items():
+        if d in da.dims:
+            da = da.sel({d: v}, method="nearest") if da[d].dtype.kind in "fi" else da.sel({d: v})
+    v = np.asarray(da.values, dtype=float).ravel()
+    return v[np.isfinite(v)]
+
+
 def caption(ds, select=None, width: int | None = None) -> str:
     """One line naming what a figure shows: N, run length, quadrature, modes/points,
-    D_r and the number of replicates (from the dataset's config attribute); wrapped at
-    ``width`` characters if given."""
+    D_r and the number of replicates (from the dataset's config attribute; the run
+    length from the runs' ``t_end`` where they ran longer or shorter than the config
+    says, as extended or settled runs do); wrapped at ``width`` characters if given."""
     cfg = _config(ds)
     parts = []
     N = _setting(ds, "N", select, cfg)
@@ -212,7 +226,15 @@ def caption(ds, select=None, width: int | None = None) -> str:
     if steps:
         length = f"{steps * dt:g} time units ({steps:,} steps)" if dt else f"{steps:,} steps"
         until = cfg.get("run", {}).get("until")
-        parts.append(f"runs of up to {length}, stopped when settled" if until else f"runs of {length}")
+        ends = _run_ends(ds, select)
+        if dt and ends.size and (ends.min() < ends.max() or not np.isclose(ends.max(), steps * dt)):
+            # runs extended past (or settled before) the config's length: say what ran
+            span = f"{ends.min():g}" + (f"-{ends.max():g}" if ends.min() < ends.max() else "")
+            length = f"{span} time units"
+            parts.append(f"runs of {length} (cap {steps * dt:g}), stopped when settled" if until
+                         else f"runs of {length}")
+        else:
+            parts.append(f"runs of up to {length}, stopped when settled" if until else f"runs of {length}")
     quad = _setting(ds, "quadrature", select, cfg)
     if quad:
         parts.append(f"{quad} quadrature")
