@@ -449,3 +449,21 @@ def test_movie_frames_are_whole_macro_blocks(tmp_path, monkeypatch, caplog):
     assert not [r for r in caplog.records if "macro_block_size" in r.getMessage()]
     with imageio.get_reader(out) as reader:
         assert reader.count_frames() == 3
+
+
+def test_summary_diagram_leaves_grid_points_without_a_run_empty():
+    # a hole of a refined or joined grid (empty run_id) is no run at all: no marker, while
+    # a run without an analysis stays "not analysed"
+    ds = _with_kthny(synthetic_dataset(Ns=(64,)))
+    ids = np.full(ds["phase"].shape, "run", dtype=object)
+    ds["run_id"] = (ds["phase"].dims, ids)
+    for v in ("kthny", "phase"):
+        ds[v][dict(eta=0, v0=0)] = -1
+        ds[v][dict(eta=1, v0=0)] = -1
+    ds["run_id"][dict(eta=0, v0=0)] = ""
+    lab = plots.summary_labels(ds)
+    assert lab[0, 0] == "none" and lab[0, 1] == "unknown"
+    ax = plots.summary_diagram(ds).axes[0]
+    gids = {c.get_gid(): len(c.get_offsets()) for c in ax.collections}
+    assert "none" not in gids and gids["unknown"] == 1
+    matplotlib.pyplot.close("all")

@@ -312,7 +312,8 @@ def summary_labels(ds, select=None) -> np.ndarray:
     """The summary label of every point of the (v0, eta) plane: the KTHNY label (solid,
     hexatic, liquid) where it is decided, with a liquid whose phase is soft fluid called
     ``soft_fluid``; the phase label (solid, fluid -> liquid, soft fluid) where the KTHNY
-    label is unknown; ``undetermined`` or ``unknown`` otherwise.  Needs ``kthny``."""
+    label is unknown; ``undetermined`` or ``unknown`` otherwise (``none`` where no run
+    exists: an empty ``run_id``).  Needs ``kthny``."""
     kthny = _phase_words(ds, ("v0", "eta"), select, var="kthny", default=KTHNY_FLAGS)
     phase = _phase_words(ds, ("v0", "eta"), select) if "phase" in ds else np.full(kthny.shape, "unknown", object)
     out = np.full(kthny.shape, "unknown", dtype=object)
@@ -324,6 +325,9 @@ def summary_labels(ds, select=None) -> np.ndarray:
     out[from_phase & (phase == "fluid")] = "liquid"
     out[from_phase & (phase == "soft_fluid")] = "soft_fluid"
     out[from_phase & (phase == "undetermined")] = "undetermined"
+    if "run_id" in ds:  # grid points no run visited (holes of refined or joined grids)
+        ids = _select(ds["run_id"], ("v0", "eta"), select).values
+        out[(out == "unknown") & (ids == "")] = "none"
     return out
 
 
@@ -332,7 +336,8 @@ def summary_diagram(ds, *, select=None, ax=None):
     """Summary phase diagram in the style of the paper's Fig. 4e: one symbol per grid
     point of the (eta, v0) plane naming its KTHNY label (solid hexagons, hexatic
     diamonds, liquid circles, soft-fluid squares; undetermined points hatched grey,
-    :func:`summary_labels`).  Needs the ``kthny`` variable.
+    :func:`summary_labels`; grid points without a run are left empty).  Needs the
+    ``kthny`` variable.
 
     Parameters
     ----------
