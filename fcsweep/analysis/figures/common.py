@@ -204,10 +204,7 @@ def _run_ends(ds, select) -> np.ndarray:
     if "t_end" not in ds:
         return np.array([])
     da = ds["t_end"]
-    for d, v in (select or {}).items():
-        if d in da.dims:
-            da = da.sel({d: v}, method="nearest") if da[d].dtype.kind in "fi" else da.sel({d: v})
-    v = np.asarray(da.values, dtype=float).ravel()
+    v = _select(da, [d for d in da.dims if d not in (select or {})], select).values.astype(float).ravel()
     return v[np.isfinite(v)]
 
 
@@ -227,14 +224,13 @@ def caption(ds, select=None, width: int | None = None) -> str:
         length = f"{steps * dt:g} time units ({steps:,} steps)" if dt else f"{steps:,} steps"
         until = cfg.get("run", {}).get("until")
         ends = _run_ends(ds, select)
-        if dt and ends.size and (ends.min() < ends.max() or not np.isclose(ends.max(), steps * dt)):
-            # runs extended past (or settled before) the config's length: say what ran
-            span = f"{ends.min():g}" + (f"-{ends.max():g}" if ends.min() < ends.max() else "")
-            length = f"{span} time units"
-            parts.append(f"runs of {length} (cap {steps * dt:g}), stopped when settled" if until
-                         else f"runs of {length}")
-        else:
-            parts.append(f"runs of up to {length}, stopped when settled" if until else f"runs of {length}")
+        ran = bool(dt) and ends.size > 0 and (ends.min() < ends.max() or not np.isclose(ends.max(), steps * dt))
+        if ran:  # runs extended past (or settled before) the config's length: say what ran
+            lo, hi = ends.min(), ends.max()
+            length = f"{lo:g}" + (f"-{hi:g}" if lo < hi else "") + " time units"
+            length += f" (cap {steps * dt:g})" if until else ""
+        head = "runs of up to" if until and not ran else "runs of"
+        parts.append(f"{head} {length}" + (", stopped when settled" if until else ""))
     quad = _setting(ds, "quadrature", select, cfg)
     if quad:
         parts.append(f"{quad} quadrature")
