@@ -373,10 +373,12 @@ def _fisher_exponents(ds: xr.Dataset) -> None:
 
 #: Variables of the finite-size collapse, in the order of its fit's fields.
 FSS_VARS = ("fss_rho_c", "fss_rho_c_err", "fss_nu", "fss_nu_err", "fss_beta", "fss_beta_err", "fss_quality")
+#: The same for the collapse of the shuffled-label control ``largest_cluster_fraction_shuffled``.
+FSS_SHUFFLED_VARS = tuple(v.replace("fss_", "fss_shuffled_", 1) for v in FSS_VARS)
 
 
 def _fss(ds: xr.Dataset, n_bootstrap: int = FSS_BOOTSTRAP) -> None:
-    """Finite-size collapse of the largest defect cluster, one per v0 (in place).
+    """Finite-size collapses of the largest defect cluster, one per v0 (in place).
 
     Only for datasets with two or more N.  Each slice of the dimensions other than
     ``eta``, ``N`` and ``replicate`` (v0 and any other swept parameter) is one fit:
@@ -384,15 +386,28 @@ def _fss(ds: xr.Dataset, n_bootstrap: int = FSS_BOOTSTRAP) -> None:
     errors) against ``rho_d_rmean`` over every eta and N, because eta moves rho_d
     through the threshold at fixed v0 while N supplies the sizes
     (:func:`fcsweep.analysis.fss.fss_collapse`; the error of rho_d is not used).
+    The same fit of ``largest_cluster_fraction_shuffled_rmean`` (defect labels permuted
+    over each frame's Voronoi graph, same rho_d) gives ``fss_shuffled_*``: the threshold
+    of random site percolation on the cells' own graphs, so ``fss_rho_c -
+    fss_shuffled_rho_c`` is the shift caused by the correlations of the defects.
     """
     if ds.sizes.get("N", 1) < 2:
         return
-    names = ("rho_d_rmean", "largest_cluster_fraction_rmean", "largest_cluster_fraction_rmean_err")
-    rho, pmax, err = (ds[v].transpose("eta", "N", ...) for v in names)
-    dims = list(rho.dims[2:])
-    shape = rho.shape[2:]
+    for stat, names in (("largest_cluster_fraction", FSS_VARS),
+                        ("largest_cluster_fraction_shuffled", FSS_SHUFFLED_VARS)):
+        _collapse_per_slice(ds, stat, names, n_bootstrap)
+
+
+def _collapse_per_slice(ds: xr.Dataset, stat: str, names: tuple, n_bootstrap: int) -> None:
+    """:func:`_fss` for the replicate means of one largest-cluster statistic ``stat``; the
+    variables ``names`` (in the order of :data:`FSS_VARS`) and ``<prefix>_reason``."""
+    if f"{stat}_rmean" not in ds:  # a dataset assembled without the statistic
+        return
+    reason = names[0].removesuffix("_rho_c") + "_reason"
+    rho, pmax, err = (ds[v].transpose("eta", "N", ...) for v in ("rho_d_rmean", f"{stat}_rmean", f"{stat}_rmean_err"))
+    dims, shape = list(rho.dims[2:]), rho.shape[2:]
     Ns = np.broadcast_to(ds["N"].values.astype(float)[None, :], rho.shape[:2])
-    out = np.full(shape + (len(FSS_VARS),), np.nan)
+    out = np.full(shape + (len(names),), np.nan)
     why = np.full(shape, "", dtype=object)
     for idx in np.ndindex(shape):
         sl = (slice(None), slice(None)) + idx
@@ -400,14 +415,14 @@ def _fss(ds: xr.Dataset, n_bootstrap: int = FSS_BOOTSTRAP) -> None:
         n = Ns.ravel()
         ok = np.isfinite(r) & np.isfinite(p)
         if np.unique(n[ok]).size < 2:
-            why[idx] = "fewer than two N with finite rho_d and largest_cluster_fraction"
+            why[idx] = f"fewer than two N with finite rho_d and {stat}"
             continue
         fit = fss_collapse(r[ok], p[ok], n[ok], np.where(np.isfinite(e[ok]), e[ok], 0.0), n_bootstrap=n_bootstrap)
         out[idx] = [fit[k.removeprefix("fss_")] for k in FSS_VARS]
         why[idx] = fit.reason
-    for k, name in enumerate(FSS_VARS):
+    for k, name in enumerate(names):
         ds[name] = (dims, out[..., k], _attrs(name))
-    ds["fss_reason"] = (dims, why, _attrs("fss_reason"))
+    ds[reason] = (dims, why, _attrs(reason))
 
 
 def write_dataset(ds: xr.Dataset, path) -> Path:

@@ -189,8 +189,8 @@ def compute_observables(traj, settings: dict, *, curves: bool = True,
     vf = _evenly(frames, int(settings["structure_frames"]))
     pos = traj.read("position", vf) / R0
     boxr = box / R0
-    ds = voronoi.defect_statistics(pos, boxr)
-    for name in ("rho_d", "largest_cluster_fraction"):
+    ds = voronoi.defect_statistics(pos, boxr, frame_indices=vf)
+    for name in ("rho_d", "largest_cluster_fraction", "largest_cluster_fraction_shuffled"):
         sc[name], sc[f"{name}_err"] = ds[name], ds[f"{name}_err"]
     starts.append(vf[ds["rho_d_start"]])
     counts = ds["cluster_size_counts"]

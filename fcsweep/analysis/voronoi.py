@@ -6,6 +6,14 @@ A cell's neighbour count is its number of Voronoi edges (sides).  A defect is a 
 with a count different from 6 (docs/model.md); ``rho_d`` = defects / N.  Defect clusters are
 connected components of defect cells over Voronoi adjacency
 (``scipy.sparse.csgraph.connected_components``).
+
+Shuffled control: the same largest-cluster statistic with the defect labels permuted at
+random over the cells of each frame's own Voronoi graph (:func:`shuffled_defects`).  The
+permutation keeps the graph and the number of defects (so rho_d) and destroys every
+correlation of the labels with each other and with the graph: on a planar triangulation
+that is random site percolation, whose threshold is 1/2.  The permutation of the frame
+with trajectory index ``k`` is drawn from ``numpy.random.default_rng((SHUFFLE_SEED, k))``,
+so a re-analysis of the same frames gives the same numbers.
 """
 
 from __future__ import annotations
@@ -18,6 +26,9 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from fcsweep.analysis.stats import time_average
+
+#: First entry of the seed of the label permutation of each frame (the second is the frame index).
+SHUFFLE_SEED = 3206
 
 
 def freud_system(pos: np.ndarray, box) -> tuple:
@@ -105,13 +116,35 @@ def cluster_size_counts(sizes: np.ndarray, N: int) -> np.ndarray:
     return np.bincount(sizes, minlength=N + 1)[1:N + 1].astype(np.int64)
 
 
-def defect_statistics(frames_pos, box) -> dict:
+def shuffled_defects(defect: np.ndarray, frame_index: int) -> np.ndarray:
+    """The defect labels permuted over the cells, reproducibly for one frame.
+
+    Parameters
+    ----------
+    defect : ndarray of bool, shape (N,)
+    frame_index : int
+        Index of the frame in its trajectory; the permutation is drawn from
+        ``numpy.random.default_rng((SHUFFLE_SEED, frame_index))``.
+
+    Returns
+    -------
+    ndarray of bool, shape (N,)
+        The same number of True entries at uniformly random cells.
+    """
+    rng = np.random.default_rng((SHUFFLE_SEED, int(frame_index)))
+    return rng.permutation(np.asarray(defect, dtype=bool))
+
+
+def defect_statistics(frames_pos, box, frame_indices=None) -> dict:
     """Defect fraction and clusters averaged over frames.
 
     Parameters
     ----------
     frames_pos : ndarray, shape (F, N, 2)
     box : (Lx, Ly)
+    frame_indices : array_like of int, shape (F,), optional
+        Trajectory index of each frame, the seed of its label permutation
+        (:func:`shuffled_defects`); default ``0 .. F-1``.
 
     Returns
     -------
@@ -119,14 +152,20 @@ def defect_statistics(frames_pos, box) -> dict:
         ``rho_d`` (defect fraction), ``largest_cluster_fraction`` (s_max / N): time
         averages (:func:`fcsweep.analysis.stats.time_average`, after equilibration
         detection) with ``_err`` (1-sigma, autocorrelation of the frame series) and
-        ``_start`` (first frame kept); ``rho_d_frames`` and
-        ``largest_cluster_fraction_frames`` (the per-frame series),
+        ``_start`` (first frame kept); ``largest_cluster_fraction_shuffled``, the same
+        for the defect labels permuted over the cells of each frame's graph (same
+        rho_d, correlations destroyed; :func:`shuffled_defects`), with ``_err`` and
+        ``_start``; ``rho_d_frames``, ``largest_cluster_fraction_frames`` and
+        ``largest_cluster_fraction_shuffled_frames`` (the per-frame series),
         ``cluster_size_counts`` (int, shape (N,), pooled over frames),
         ``n_sides_counts`` (int, shape (13,), cells with 0..12 sides pooled), ``n_frames``.
     """
     frames_pos = np.asarray(frames_pos, dtype=float)
     F, N, _ = frames_pos.shape
-    rho, pmax = np.empty(F), np.empty(F)
+    frame_indices = np.arange(F) if frame_indices is None else np.asarray(frame_indices, dtype=np.int64)
+    if frame_indices.shape != (F,):
+        raise ValueError(f"frame_indices must have one entry per frame ({F}), got shape {frame_indices.shape}")
+    rho, pmax, pshuf = np.empty(F), np.empty(F), np.empty(F)
     counts = np.zeros(N, dtype=np.int64)
     sides = np.zeros(13, dtype=np.int64)
     for f in range(F):
@@ -136,10 +175,14 @@ def defect_statistics(frames_pos, box) -> dict:
         sizes = defect_clusters(d, vn.i, vn.j)
         pmax[f] = sizes[0] / N if sizes.size else 0.0
         counts += cluster_size_counts(sizes, N)
+        shuf = defect_clusters(shuffled_defects(d, frame_indices[f]), vn.i, vn.j)
+        pshuf[f] = shuf[0] / N if shuf.size else 0.0
         sides += np.bincount(np.minimum(vn.n_sides, 12), minlength=13)
     out = {"cluster_size_counts": counts, "n_sides_counts": sides, "n_frames": F,
-           "rho_d_frames": rho, "largest_cluster_fraction_frames": pmax}
-    for name, series in (("rho_d", rho), ("largest_cluster_fraction", pmax)):
+           "rho_d_frames": rho, "largest_cluster_fraction_frames": pmax,
+           "largest_cluster_fraction_shuffled_frames": pshuf}
+    for name, series in (("rho_d", rho), ("largest_cluster_fraction", pmax),
+                         ("largest_cluster_fraction_shuffled", pshuf)):
         ta = time_average(series)
         out.update({name: ta.mean, f"{name}_err": ta.err, f"{name}_start": ta.start})
     return out

@@ -94,6 +94,11 @@ OBSERVABLES: dict[str, Observable] = {o.name: o for o in (
     _O("rho_d_err", "run", "1-sigma error of rho_d (autocorrelation of the frame series)"),
     _O("largest_cluster_fraction", "run", "largest defect cluster size / N, frame average", replicate=True, until=True),
     _O("largest_cluster_fraction_err", "run", "1-sigma error of largest_cluster_fraction"),
+    _O("largest_cluster_fraction_shuffled", "run", "largest defect cluster size / N with the defect labels "
+                                                   "permuted at random over the cells of each frame's Voronoi graph "
+                                                   "(same rho_d and graph, label correlations destroyed), frame average",
+       replicate=True),
+    _O("largest_cluster_fraction_shuffled_err", "run", "1-sigma error of largest_cluster_fraction_shuffled"),
     _O("psi6", "run", "global hexatic order |Psi6| = |<psi6_i>|, frame average", replicate=True, until=True),
     _O("psi6_err", "run", "1-sigma error of psi6 (autocorrelation of the frame series)"),
     _O("n_frames", "run", "frames after the transient used for the MSD"),
@@ -173,6 +178,19 @@ OBSERVABLES: dict[str, Observable] = {o.name: o for o in (
     _O("fss_beta_err", "dataset", "1-sigma bootstrap error of fss_beta"),
     _O("fss_quality", "dataset", "collapse quality S at the fit (~1: the sizes collapse within their errors)"),
     _O("fss_reason", "text", "why the finite-size collapse is undetermined or flagged (empty: a usable fit)", units=""),
+    _O("fss_shuffled_rho_c", "dataset", "percolation threshold of rho_d from the finite-size collapse of "
+                                        "largest_cluster_fraction_shuffled (labels permuted: random site "
+                                        "percolation on the cells' graph, critical 1/2); fss_rho_c - "
+                                        "fss_shuffled_rho_c is the shift caused by defect correlations"),
+    _O("fss_shuffled_rho_c_err", "dataset", "1-sigma bootstrap error of fss_shuffled_rho_c"),
+    _O("fss_shuffled_nu", "dataset", "correlation-length exponent nu of the shuffled-label collapse (critical 4/3)"),
+    _O("fss_shuffled_nu_err", "dataset", "1-sigma bootstrap error of fss_shuffled_nu"),
+    _O("fss_shuffled_beta", "dataset", "order-parameter exponent beta of the shuffled-label collapse (critical 5/36)"),
+    _O("fss_shuffled_beta_err", "dataset", "1-sigma bootstrap error of fss_shuffled_beta"),
+    _O("fss_shuffled_quality", "dataset", "collapse quality S of the shuffled-label collapse (~1: the sizes "
+                                          "collapse within their errors)"),
+    _O("fss_shuffled_reason", "text", "why the shuffled-label finite-size collapse is undetermined or flagged "
+                                      "(empty: a usable fit)", units=""),
     _O("status", "dataset", "run and analysis status"),
     _O("n_structure_frames", "dataset", "frames used for Voronoi, defect and order statistics"),
     _O("run_id", "text", "run identifier (directory name under runs/)", units=""),
