@@ -99,3 +99,40 @@ def test_free_collapse_of_correlated_labels_is_shifted_and_the_shuffle_is_not():
                            n_bootstrap=20)
     assert real.rho_c + 3 * real.rho_c_err < 0.5, real
     assert abs(shuf.rho_c - 0.5) <= 3 * shuf.rho_c_err, shuf
+
+
+def _scaling(rho, N, rho_c, nu, beta):
+    """P_max of exact finite-size scaling, P_max L^(beta/nu) = f((rho - rho_c) L^(1/nu))."""
+    L = np.sqrt(N)
+    x = (rho - rho_c) * L ** (1 / nu)
+    return (0.3 + 0.5 * np.tanh(0.8 * x) + 0.05 * x ** 2) * L ** (-beta / nu)
+
+
+def test_aggregate_stores_the_shuffled_collapse_beside_the_real_one():
+    """Exactly scaling data, real threshold 0.42 and shuffled 1/2: each collapse returns its
+    own within 3e-3 (the error of noiseless data, test_fss)."""
+    import xarray as xr
+
+    from fcsweep.analysis.aggregate import FSS_SHUFFLED_VARS, FSS_VARS, _fss
+
+    sizes = np.array([256, 1024, 4096])
+    rho = np.broadcast_to(np.linspace(0.30, 0.60, 31)[:, None, None], (31, 1, 3))
+    N = np.broadcast_to(sizes[None, None, :].astype(float), rho.shape)
+    dims = ("eta", "v0", "N")
+    err = (dims, np.full(rho.shape, 1e-3))
+    ds = xr.Dataset({"rho_d_rmean": (dims, rho.copy()),
+                     "largest_cluster_fraction_rmean": (dims, _scaling(rho, N, 0.42, 1.1, 0.2)),
+                     "largest_cluster_fraction_rmean_err": err,
+                     "largest_cluster_fraction_shuffled_rmean": (dims, _scaling(rho, N, 0.5, NU_2D, BETA_2D)),
+                     "largest_cluster_fraction_shuffled_rmean_err": err},
+                    coords={"eta": np.arange(31.0), "v0": [0.06], "N": sizes.astype(np.int32)})
+    old = ds.drop_vars(["largest_cluster_fraction_shuffled_rmean", "largest_cluster_fraction_shuffled_rmean_err"])
+    _fss(ds, n_bootstrap=0)
+    for name in FSS_VARS + FSS_SHUFFLED_VARS + ("fss_reason", "fss_shuffled_reason"):
+        assert ds[name].dims == ("v0",) and ds[name].attrs["long_name"], name
+    assert ds["fss_rho_c"].item() == pytest.approx(0.42, abs=3e-3)
+    assert ds["fss_shuffled_rho_c"].item() == pytest.approx(0.5, abs=3e-3)
+    assert ds["fss_shuffled_nu"].item() == pytest.approx(NU_2D, rel=0.05)
+    assert "defect correlations" in ds["fss_shuffled_rho_c"].attrs["long_name"]
+    _fss(old, n_bootstrap=0)  # a dataset without the shuffled statistic: only the real collapse
+    assert "fss_rho_c" in old and "fss_shuffled_rho_c" not in old
