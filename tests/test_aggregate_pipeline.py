@@ -165,8 +165,13 @@ def test_dataset_round_trip_and_contents(sweep, tmp_path):
     assert "flag_meanings" in ds["phase"].attrs
     assert "undetermined" in ds["phase"].attrs["flag_meanings"].split()
     # every observable carries an error and every label a confidence and a reason
-    for v in ("D_eff", "D_s", "q_mean", "q_frac_above", "rho_d", "largest_cluster_fraction", "psi6"):
+    for v in ("D_eff", "D_s", "q_mean", "q_frac_above", "rho_d", "largest_cluster_fraction",
+              "largest_cluster_fraction_shuffled", "psi6"):
         assert f"{v}_err" in ds, v
+    # the shuffled control: a largest cluster never holds more than the defects there are
+    shuf = ds["largest_cluster_fraction_shuffled"].values
+    fin = np.isfinite(shuf)
+    assert fin.any() and np.all(shuf[fin] <= ds["rho_d"].values[fin] + 1e-12)
     assert solid["phase_confidence"].item() > 0.95 and solid["phase_reason"].item().startswith("P(solid)")
     # CF-1.8 knows no int64; strings are character arrays
     assert not [v for v in ds.variables if ds[v].dtype == np.int64]
