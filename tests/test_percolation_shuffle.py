@@ -4,7 +4,8 @@ Site percolation with independent labels on a planar triangulation (the Voronoi 
 points in general position) has threshold 1/2; positively correlated labels that are not
 symmetric under exchanging labelled and unlabelled cells move it ("Swiss cheese" labels:
 cells not covered by Poisson discs of radius 2.5 spacings percolate near 0.41 at
-N = 256-4096).  Permuting the labels over the cells of the same graph
+N = 256-4096); correlated labels that are symmetric (a thresholded Gaussian field) do
+not.  Permuting the labels over the cells of the same graph
 (:func:`fcsweep.analysis.voronoi.shuffled_defects`) keeps rho and the graph and must give
 1/2 back.  Default tests hold the exponents at the 2-D values (finite-range correlations
 do not change the universality class) and use two small sizes; the slow ones fit all three
@@ -13,8 +14,8 @@ parameters over N = 256, 1024, 4096.
 
 import numpy as np
 import pytest
-from voronoi_percolation import (independent_labels, jittered_triangular, largest_cluster_data, random_points,
-                                 swiss_cheese_labels)
+from voronoi_percolation import (gaussian_field_labels, independent_labels, jittered_triangular,
+                                 largest_cluster_data, random_points, swiss_cheese_labels)
 
 from fcsweep.analysis.fss import BETA_2D, NU_2D, fss_collapse
 from fcsweep.analysis.voronoi import defect_statistics, shuffled_defects
@@ -90,6 +91,19 @@ def test_free_collapse_of_independent_labels_gives_one_half(points):
         assert fit.reason == "", fit
         assert abs(fit.rho_c - 0.5) <= 3 * fit.rho_c_err, fit
         assert abs(fit.nu - NU_2D) < 0.4, fit
+
+
+@pytest.mark.slow
+def test_symmetric_correlated_labels_still_percolate_at_one_half():
+    """A thresholded Gaussian field (correlation length 2 spacings; neighbours agree in 78 %
+    of bonds against 50 % for independent labels) is symmetric under exchanging labelled and
+    unlabelled cells: measured 0.5018 +- 0.0064 (real), 0.5002 +- 0.0042 (shuffled).  With
+    the exponents fixed and N = 256, 1024 over 5 seeds: pulls -1.3 ... 2.0."""
+    real, shuf = collapses(largest_cluster_data(random_points, gaussian_field_labels, LARGE,
+                                                np.arange(0.40, 0.601, 0.01)), n_bootstrap=20)
+    for fit in (real, shuf):
+        assert fit.reason == "", fit
+        assert abs(fit.rho_c - 0.5) <= 3 * fit.rho_c_err, fit
 
 
 @pytest.mark.slow

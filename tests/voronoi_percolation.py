@@ -6,7 +6,8 @@ independent labels.  Labels that are correlated, and not symmetric under exchang
 labelled and unlabelled cells, move it.  Here: the "Swiss cheese" labels, a cell labelled
 when no centre of a Poisson set of discs of radius ``r`` covers it (positively correlated
 labels; in the continuum the uncovered phase percolates at area fraction 0.32), percolate
-below 1/2.  Permuting the labels over the cells (:func:`fcsweep.analysis.voronoi.shuffled_defects`)
+below 1/2, while the symmetric labels of a thresholded Gaussian field (correlated, but
+labelled and unlabelled cells exchangeable) stay at 1/2.  Permuting the labels over the cells (:func:`fcsweep.analysis.voronoi.shuffled_defects`)
 restores 1/2.  Test helper (also used by the slow known-answer tests), not part of the package.
 """
 
@@ -81,3 +82,25 @@ def largest_cluster_data(points, labels, sizes: dict, p_grid, seed=0, n_graphs: 
             err = np.sqrt(n_real)
             rows.append((rho.mean(), big.mean(), big.std(ddof=1) / err, shuf.mean(), shuf.std(ddof=1) / err, N))
     return tuple(np.array(c) for c in zip(*rows))
+
+
+def gaussian_field_labels(pos, box, p: float, rng, xi: float = 2.0) -> np.ndarray:
+    """The fraction ``p`` of cells where a smooth Gaussian random field is highest.
+
+    The field is a sum of the box's Fourier modes with random phases and Gaussian
+    amplitudes, spectrum ``exp(-k^2 xi^2 / 4)`` (correlation ``exp(-r^2 / xi^2)``).  Its law is
+    symmetric under ``f -> -f``, so labelled and unlabelled cells are exchangeable at p = 1/2."""
+    Lx, Ly = box
+    kmax = 3.0 / xi
+    nx, ny = int(kmax * Lx / (2 * np.pi)), int(kmax * Ly / (2 * np.pi))
+    m, n = np.arange(0, nx + 1), np.arange(-ny, ny + 1)
+    k2 = (2 * np.pi * m[:, None] / Lx) ** 2 + (2 * np.pi * n[None, :] / Ly) ** 2
+    coef = np.exp(-k2 * xi ** 2 / 8.0) * (rng.standard_normal(k2.shape) + 1j * rng.standard_normal(k2.shape))
+    coef[0, :ny + 1] = 0.0  # m = 0: keep n > 0 only, one of each pair +-k
+    ex = np.exp(2j * np.pi * pos[:, :1] * m[None, :] / Lx)
+    ey = np.exp(2j * np.pi * pos[:, 1:] * n[None, :] / Ly)
+    field = ((ex @ coef) * ey).sum(axis=1).real
+    n_label = int(round(p * len(pos)))
+    d = np.zeros(len(pos), dtype=bool)
+    d[np.argsort(field)[len(pos) - n_label:]] = True
+    return d
