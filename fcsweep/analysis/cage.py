@@ -42,6 +42,8 @@ from fcsweep.analysis.voronoi import voronoi_neighbors
 
 #: Lags added between ``t*`` and the window's end for the slope past ``t*``.
 LATE_LAGS = 12
+#: Lags added between the grid lags around the first clear crossing, to place ``t*``.
+CROSSING_LAGS = 6
 #: Fewest lags at or past ``t*`` for a slope there (``D_late``).
 MIN_LATE_LAGS = 4
 #: Time origins averaged per lag (evenly spaced over the window; one at the whole window).
@@ -192,15 +194,32 @@ def cage_breaking(time, unwrapped, box, *, spacing: float | None = None,
     D, D_err = _late_slope(lags * h, blocks * a ** 2)
     D_late = D_late_err = nan
     if clear.size:
+        curves = [lags, msd, fs, blocks]
+
+        def add(more):  # the curves at more lags (frames), merged in lag order
+            more = np.setdiff1d(np.unique(np.round(more).astype(int)), curves[0])
+            if more.size:
+                m2, f2, p2, _ = _cage_curves(x, more, L, k, n_origins, shells)
+                order = np.argsort(np.concatenate([curves[0], more]))
+                for q, new in enumerate((more, m2, f2, by_block(p2))):
+                    curves[q] = np.concatenate([curves[q], new])[order]
+            return more
+
+        t_lag = lags[at]
+        if at > 0:  # the crossing between two grid lags: the first clear one among lags between
+            more = add(np.linspace(lags[at - 1], lags[at], CROSSING_LAGS + 2)[1:-1])
+            if more.size:
+                i = np.searchsorted(curves[0], more)
+                b = curves[3][i]
+                hit = np.flatnonzero(curves[1][i] / a ** 2 - 3.0 * b.std(axis=1, ddof=1) / np.sqrt(labels.size) > 1.0)
+                t_lag = more[hit[0]] if hit.size else t_lag
         # past t* the cage-relative MSD is diffusive: more lags there give its slope
-        extra = np.setdiff1d(np.unique(np.round(np.linspace(lags[at], T - 1, LATE_LAGS)).astype(int)), lags)
-        if extra.size:
-            m2, f2, p2, _ = _cage_curves(x, extra, L, k, n_origins, shells)
-            order = np.argsort(np.concatenate([lags, extra]))
-            lags = np.concatenate([lags, extra])[order]
-            msd, fs = np.concatenate([msd, m2])[order], np.concatenate([fs, f2])[order]
-            blocks = np.concatenate([blocks, by_block(p2)])[order]
-            at = int(np.flatnonzero(order == at)[0])
+        add(np.linspace(t_lag, T - 1, LATE_LAGS))
+        lags, msd, fs, blocks = curves
+        at = int(np.searchsorted(lags, t_lag))
+        ratio = float(msd[at] / a ** 2)
+        err = float(blocks[at].std(ddof=1) / np.sqrt(labels.size))
+        p = broken_probability(ratio, err)
         D_late, D_late_err = _slope_past(lags[at:] * h, blocks[at:] * a ** 2)
         D_late, D_late_err = D_late / (1.0 + inv_n), D_late_err / (1.0 + inv_n)
     below = np.flatnonzero(fs < np.exp(-1.0))

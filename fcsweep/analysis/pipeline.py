@@ -120,6 +120,13 @@ def settings_with(overrides=None, *, transient=None) -> dict:
     return s
 
 
+def config_settings(config) -> dict:
+    """The analysis settings a sweep's config sets: its ``analysis`` section
+    (``label_confidence``, ``percolation_threshold``); {} for a config without one."""
+    analysis = getattr(config, "analysis", None)
+    return dict(analysis.as_dict()) if analysis is not None else {}
+
+
 # ------------------------------------------------------------------ one run: compute
 
 def compute_observables(traj, settings: dict, *, curves: bool = True,
@@ -471,7 +478,8 @@ def analyze_sweep(config, *, workers=1, force=False, settings=None) -> list:
     Runs that are not done (the state of :func:`fcsweep.io.sweepdir.run_state`, which
     ``fcsweep status`` shows) are reported as "skipped" with their state; analysis errors
     are reported as "failed" (the sweep goes on).  The runs are read once, so points that
-    ``fcsweep refine`` adds meanwhile are left for the next call.
+    ``fcsweep refine`` adds meanwhile are left for the next call.  The labels use the
+    config's ``analysis`` section (:func:`config_settings`), overridden by ``settings``.
 
     Returns
     -------
@@ -479,6 +487,7 @@ def analyze_sweep(config, *, workers=1, force=False, settings=None) -> list:
         status is "done", "skipped" or "failed", in run order.
     """
     transient = float(getattr(getattr(config, "run", None), "transient", DEFAULT_SETTINGS["transient"]))
+    settings = {**config_settings(config), **dict(settings or {})}
     specs = list(config.runs())
     out = {}
     todo = []
