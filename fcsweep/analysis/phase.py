@@ -237,13 +237,13 @@ def cage_evidence(sc: dict) -> tuple[float, str]:
 
     ``P(cage_msd_ratio > 1)`` from the ratio and its error (so that a grid point's
     replicate-combined ratio gives its own probability); NaN where the cage test could
-    not be made. ``cage_d_eff_bound`` is not read: it no longer gates anything.
+    not be made or has no error. ``cage_d_eff_bound`` is not read: it no longer gates anything.
     """
     ratio, err = float(sc.get("cage_msd_ratio", np.nan)), float(sc.get("cage_msd_ratio_err", np.nan))
     lag = float(sc.get("cage_lag", np.nan))
     if not np.isfinite(ratio):
         return float("nan"), "cage test not possible (too few frames or cells)"
-    p = broken_probability(ratio, err) if np.isfinite(err) else float(sc.get("cage_broken_probability", np.nan))
+    p = broken_probability(ratio, err) if np.isfinite(err) else float("nan")
     where = f"cage-relative MSD {ratio:.3g} +- {err:.2g} a^2 over {lag:.4g} time units"
     if not np.isfinite(p):
         return float("nan"), f"{where}: no error"
