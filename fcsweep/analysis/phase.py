@@ -15,19 +15,21 @@ taken as Gaussian about its estimate with its 1-sigma error, so that
     P(percolated) = Phi((rho_d - 1/2) / rho_d_err),
 
 and the label is the most probable one when its probability reaches ``min_confidence``
-(default Phi(1) = 0.841: a single deciding observable one error away from its
-threshold), else *undetermined* (code 3 for the phase, 2 for percolation). A label
-whose diffusion estimate is not trustworthy (run too short for the persistence time,
-MSD slope not settled) is undetermined whatever the numbers say. The confidence
-reported is the probability of the most probable label; the reason says what decided.
+(default 0.95, the config's ``analysis.label_confidence``), else *undetermined* (code 3
+for the phase, 2 for percolation). The confidence reported is the probability of the
+most probable label; the reason says what decided.
 
-With cage evidence (the analysis pipeline always gives it) the rule is asymmetric,
-because fluidity can be shown in a finite window and solidity only bounded: *not
-solid* needs the cells to have left their cages, ``P(broken) >= min_confidence``
-(:mod:`fcsweep.analysis.cage`, where a broken cage also bounds D_eff far above 1e-3),
-and then P(fluid) = P(broken) (1 - P(<q> > 3.81)), P(soft fluid) = P(broken) P(<q> >
-3.81); *solid* needs a trustworthy D_eff with P(solid) >= min_confidence and no broken
-cage. Evidence on both sides, or neither, is undetermined with the reason.
+The phase rule is one function, :func:`phase_label`, for a run (its stored scalars) and
+for a grid point (its replicate-combined scalars, :mod:`fcsweep.analysis.points`), on a
+:class:`PhaseEvidence` built by :func:`phase_evidence`. Fluidity can be shown in a
+finite window, solidity only bounded, so the evidence differs by side: where the cells
+left their cages (``P(broken) >= min_confidence``, :mod:`fcsweep.analysis.cage`) the
+cage-relative MSD past the breaking gives D_eff in its diffusive regime
+(``D_eff_cr_late``), which decides solid against not solid with its error, and <q>
+fluid against soft fluid; without broken cages only *solid* can be decided, from a
+trustworthy ``D_eff_cr`` (:func:`solid_test_estimate`) with P(solid) (1 - P(broken)) >=
+``min_confidence``; otherwise the label is undetermined ("a longer run decides").
+:func:`classify_phase` without cage evidence is the plain D_eff test.
 """
 
 from __future__ import annotations
