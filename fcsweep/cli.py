@@ -64,10 +64,10 @@ class WorkflowGroup(click.Group):
 def _rows(cfg, *, verify: bool = False):
     """:func:`fcsweep.sweep.status.collect_status` with the analysis settings that
     `fcsweep analyze` would use now, so that analyses made with others read ``stale``."""
-    from fcsweep.analysis.pipeline import settings_with
+    from fcsweep.analysis.pipeline import config_settings, settings_with
     from fcsweep.sweep.status import collect_status
 
-    return collect_status(cfg, analysis_settings=settings_with(transient=cfg.run.transient), verify=verify)
+    return collect_status(cfg, analysis_settings=settings_with(config_settings(cfg), transient=cfg.run.transient), verify=verify)
 
 
 def _say(msg: str) -> None:

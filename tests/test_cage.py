@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 from synthetic import abp_positions, ar1
 
-from fcsweep.analysis.cage import BOUND_FACTOR, cage_breaking, neighbour_spacing
-from fcsweep.analysis.diffusion import D_EFF_SOLID, estimate_diffusion, free_diffusion
+from fcsweep.analysis.cage import cage_breaking, neighbour_spacing
+from fcsweep.analysis.diffusion import estimate_diffusion, free_diffusion
 from fcsweep.analysis.phase import (PHASE_FLUID, PHASE_SOFT_FLUID, PHASE_SOLID, PHASE_UNDETERMINED,
                                     classify_phase)
 from fcsweep.analysis.pipeline import cage_evidence
@@ -33,7 +33,8 @@ def _label(k, span, seed, q=(3.6, 0.002)):
     p, note = cage_evidence(sc)
     ok = est.long_enough and est.diffusive
     return classify_phase(est.D / D0, est.D_err / D0, *q, diffusion_ok=ok, diffusion_note="D_eff not trusted",
-                          cage_broken=p, cage_note=note), cb
+                          cage_broken=p, cage_note=note, D_late=sc["D_eff_cr_late"],
+                          D_late_err=sc["D_eff_cr_late_err"]), cb
 
 
 def test_neighbour_spacing_of_the_model_box():
@@ -47,11 +48,12 @@ def test_neighbour_spacing_of_the_model_box():
 @pytest.mark.parametrize("span", [200, 400, 800])
 @pytest.mark.parametrize("seed", [1, 2])
 def test_free_abps_read_fluid_over_2_4_and_8_persistence_times(span, seed):
-    """Free ABPs leave their neighbour shells within 2/Dr already: fluid, decided (the old
-    rule said "run too short" for 2/Dr and 4/Dr), whatever D_eff's own trust."""
+    """Free ABPs leave their neighbour shells within 2/Dr already, and the cage-relative
+    MSD past that lag gives D_eff_cr_late far above 1e-3: fluid, decided (the old rule
+    said "run too short" for 2/Dr and 4/Dr), whatever D_eff's own trust."""
     lab, cb = _label(0.0, span, seed)
     assert cb.ratio > 1.0 and cb.p_broken > 0.99 and cb.lag <= span
-    assert cb.d_eff_bound(V0, DR) >= BOUND_FACTOR * D_EFF_SOLID
+    assert cb.D_late / D0 > 0.1
     assert lab.code == PHASE_FLUID and lab.confidence > 0.95, lab.reason
 
 
@@ -75,13 +77,19 @@ def test_f_s_of_free_abps_relaxes_and_tau_alpha_is_where_it_crosses_one_over_e()
 
 
 def test_asymmetric_rule():
-    """Broken cages decide "not solid"; D_eff alone can decide only "solid"; both sides
-    at once, or neither, is undetermined."""
-    fluid = classify_phase(5e-3, 1e-3, 3.6, 0.01, cage_broken=0.999)
+    """With broken cages D_eff_cr_late decides (both sides); without them D_eff can
+    decide only "solid"; a broken cage without a slope past it, or no evidence, is
+    undetermined."""
+    late = {"D_late": 5e-3, "D_late_err": 1e-3}
+    fluid = classify_phase(5e-3, 1e-3, 3.6, 0.01, cage_broken=0.999, **late)
     assert fluid.code == PHASE_FLUID and fluid.confidence > 0.99
-    soft = classify_phase(5e-3, 1e-3, 3.9, 0.01, cage_broken=0.999)
+    soft = classify_phase(5e-3, 1e-3, 3.9, 0.01, cage_broken=0.999, **late)
     assert soft.code == PHASE_SOFT_FLUID
-    near_q = classify_phase(5e-3, 1e-3, 3.812, 0.01, cage_broken=0.999)
+    no_slope = classify_phase(5e-3, 1e-3, 3.6, 0.01, cage_broken=0.999)
+    assert no_slope.code == PHASE_UNDETERMINED and "too few lags" in no_slope.reason
+    near = classify_phase(5e-3, 1e-3, 3.6, 0.01, cage_broken=0.999, D_late=1.5e-3, D_late_err=1e-3)
+    assert near.code == PHASE_UNDETERMINED and "solid threshold" in near.reason
+    near_q = classify_phase(5e-3, 1e-3, 3.812, 0.01, cage_broken=0.999, **late)
     assert near_q.code == PHASE_UNDETERMINED and "3.81" in near_q.reason
     no_cage = classify_phase(5e-2, 1e-3, 3.6, 0.01, cage_broken=0.0, cage_note="no cage broken within the window")
     assert no_cage.code == PHASE_UNDETERMINED and "reads fluid" in no_cage.reason
@@ -90,18 +98,24 @@ def test_asymmetric_rule():
     untrusted = classify_phase(1e-4, 2e-4, 3.6, 0.01, diffusion_ok=False, diffusion_note="too short",
                                cage_broken=0.0)
     assert untrusted.code == PHASE_UNDETERMINED and "too short" in untrusted.reason
-    conflict = classify_phase(1e-4, 2e-4, 3.6, 0.01, cage_broken=0.999)
-    assert conflict.code == PHASE_UNDETERMINED and "reads solid" in conflict.reason
+    slow = classify_phase(5e-3, 1e-3, 3.6, 0.01, cage_broken=0.999, D_late=2e-4, D_late_err=2e-4)
+    assert slow.code == PHASE_SOLID and "D_eff_cr_late" in slow.reason
     no_evidence = classify_phase(1e-4, 2e-4, 3.6, 0.01, cage_broken=float("nan"))
     assert no_evidence.code == PHASE_SOLID
 
 
-def test_broken_cage_that_does_not_bound_d_eff_decides_nothing():
-    """Very fast, persistent cells: a^2 / (4 t D0) below 10 x 1e-3 -> no evidence."""
+def test_the_d_eff_bound_of_a_broken_cage_gates_nothing():
+    """Broken cages whose a^2 / (4 t* D0) is only 4e-3 (the old rule's blind band) are
+    decided by D_eff_cr_late: 2e-3 +- 2e-4 is fluid."""
+    from fcsweep.analysis.phase import phase_evidence, phase_label
+
     sc = {"cage_msd_ratio": 3.0, "cage_msd_ratio_err": 0.1, "cage_broken_probability": 1.0, "cage_lag": 200.0,
-          "cage_d_eff_bound": 0.004}
+          "cage_d_eff_bound": 0.004, "D_eff_cr_late": 2e-3, "D_eff_cr_late_err": 2e-4, "q_mean": 3.6,
+          "q_mean_err": 0.01}
     p, note = cage_evidence(sc)
-    assert np.isnan(p) and "bounds D_eff only above" in note
+    assert p > 0.999
+    lab = phase_label(phase_evidence(sc))
+    assert lab.code == PHASE_FLUID and lab.confidence > 0.95, lab.reason
 
 
 def test_stationary_series_is_not_cut_by_equilibration_detection():
@@ -139,7 +153,8 @@ def _model_label(eta, v0, time_units=500.0, every=400, N=256):
     qa = time_average(np.array(q)[keep])
     return classify_phase(est.D / D0m, est.D_err / D0m, qa.mean, qa.err,
                           diffusion_ok=est.long_enough and est.diffusive, diffusion_note="D_eff not trusted",
-                          cage_broken=p, cage_note=note), cb
+                          cage_broken=p, cage_note=note, D_late=sc["D_eff_cr_late"],
+                          D_late_err=sc["D_eff_cr_late_err"]), cb
 
 
 @pytest.mark.slow

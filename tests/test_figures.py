@@ -331,6 +331,7 @@ def test_summary_diagram_only_when_the_dataset_has_kthny_labels(tmp_path, monkey
 
 def test_summary_labels_follow_kthny_and_name_soft_fluids():
     ds = _with_kthny(synthetic_dataset())
+    ds["phase"][0, 0] = 3  # KTHNY and phase both undetermined there
     lab = plots.summary_labels(ds)  # (v0, eta) at the largest N
     phase = ds["phase"].isel(N=-1, replicate=0).values.T
     assert lab[1, 2] == "hexatic" and lab[0, 0] == "undetermined"
@@ -340,6 +341,22 @@ def test_summary_labels_follow_kthny_and_name_soft_fluids():
     assert {t.get_text() for t in ax.get_legend().get_texts()} >= {"solid", "hexatic", "undetermined"}
     hatched = [c for c in ax.collections if c.get_gid() == "undetermined"]
     assert len(hatched) == 1 and hatched[0].get_hatch()
+    matplotlib.pyplot.close("all")
+
+
+def test_summary_labels_fall_back_to_the_phase_label_where_kthny_is_not_decided():
+    """At N < 4096 the KTHNY label is never decided (undetermined); the summary then shows
+    the decided phase label (the demo at N = 64 drew all its decided points undetermined)."""
+    ds = synthetic_dataset(Ns=(64,))
+    ds["kthny"] = (ds["phase"].dims, np.full(ds["phase"].shape, 3, dtype=np.int8),
+                   {"flag_values": np.array([-1, 0, 1, 2, 3], dtype=np.int8),
+                    "flag_meanings": "unknown solid hexatic liquid undetermined"})
+    ds["phase"][1, 2] = 3
+    lab = plots.summary_labels(ds)
+    phase = ds["phase"].isel(N=0, replicate=0).values.T
+    words = {0: "solid", 1: "liquid", 2: "soft_fluid", 3: "undetermined"}
+    assert lab.tolist() == [[words[int(c)] for c in row] for row in phase]
+    assert lab[2, 1] == "undetermined" and np.sum(lab == "undetermined") == 1
     matplotlib.pyplot.close("all")
 
 

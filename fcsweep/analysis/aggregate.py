@@ -13,12 +13,19 @@ Integer labels (``phase``, ``percolated``, ``status``) are int8 with CF ``flag_v
 and ``flag_meanings``; missing or failed runs are NaN (floats) or the "unknown" flag, and
 ``status`` says why. Every observable has its 1-sigma error ``<name>_err``; each label
 its ``<label>_confidence`` and ``<label>_reason`` (a character string per run).
+Labels use the config's ``analysis`` section (``label_confidence``,
+``percolation_threshold``), stored in the ``analysis_settings`` attribute.
 
 Replicates: ``<name>_rmean`` and ``<name>_rmean_err`` reduce the ``replicate``
 dimension (:func:`fcsweep.analysis.stats.combine`: plain mean, propagated error scaled
 up by sqrt(chi2/dof) when the replicates scatter more than their errors allow) and
 ``<name>_rchi2`` is that reduced chi-square, ~1 when the per-run errors are honest.
-``phase_point`` and ``percolated_point`` are the labels of these replicate means.
+``phase_point`` and ``percolated_point`` are the labels of a point: the one phase rule
+(:func:`fcsweep.analysis.phase.phase_label`) on its replicate-combined evidence
+(:mod:`fcsweep.analysis.points`). With an ``initial`` dimension (both starts swept) the
+per-start labels are ``<label>_start`` and the point's labels have no ``initial``
+dimension: the starts' common decided label, else undetermined; ``phase_hysteresis``
+says whether the starts agree.
 
 CF-1.8: integer variables are int32 or int8 (CF-1.8 has no int64), strings are
 character arrays, bounds carry no fill value.
@@ -36,8 +43,8 @@ import xarray as xr
 
 from fcsweep import __version__
 from fcsweep.analysis.phase import (KTHNY_FLAGS, KTHNY_UNDETERMINED, MIN_CONFIDENCE, PERCOLATION_FLAGS, PHASE_FLAGS,
-                                    classify_percolation, classify_phase, flag_attrs)
-from fcsweep.analysis.cage import bounds_d_eff, broken_probability
+                                    RHO_D_PERCOLATION, flag_attrs)
+from fcsweep.analysis.points import COMBINED, DECIDED, HYSTERESIS_FLAGS, LEAST, agree, point_labels
 from fcsweep.analysis.fss import FSS_BOOTSTRAP, fss_collapse
 from fcsweep.analysis.percolation import fisher_observables
 from fcsweep.analysis.stats import combine
@@ -45,7 +52,7 @@ from fcsweep.io.observables import OBSERVABLES, REPLICATE_REDUCED, RUN_SCALARS, 
 from fcsweep.io.status import read_status
 from fcsweep.io.sweepdir import run_path, run_state
 from fcsweep.model.parameters import PARAMETERS
-from fcsweep.analysis.pipeline import (ANALYSIS_ERROR_FILE, ANALYSIS_FILE, CURVES, DATASET_FILE,
+from fcsweep.analysis.pipeline import (ANALYSIS_ERROR_FILE, ANALYSIS_FILE, CURVES, DATASET_FILE, config_settings,
                                       read_analysis)
 
 CORE_DIMS = ("eta", "v0", "N")
@@ -61,6 +68,8 @@ META = {**{name: (p.long_name, p.units) for name, p in PARAMETERS.items()},
 SCALAR_VARS = RUN_SCALARS
 #: Observables reduced over replicates (``<name>_rmean``, ``_rmean_err``, ``_rchi2``).
 REPLICATE_VARS = REPLICATE_REDUCED
+#: Per-run numbers the point labels read (:func:`fcsweep.analysis.points.combine_runs`).
+POINT_INPUTS = COMBINED + tuple(f"{v}_err" for v in COMBINED) + LEAST + ("cage_lag",)
 #: Per-run strings, written as CF character arrays.
 STRING_VARS = TEXTS
 
@@ -233,6 +242,7 @@ def build_dataset(config) -> xr.Dataset:
     ds["status"] = (dims, status, {**_attrs("status"), **flag_attrs(STATUS_FLAGS)})
     for v, arr in strings.items():
         ds[v] = (dims, arr, _attrs(v))
+    settings = {**(settings or {}), **config_settings(config)}  # the config's label settings rule the points
     _reduce_replicates(ds, settings)
     now = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
     cfg = config.to_dict() if hasattr(config, "to_dict") else {}
@@ -281,7 +291,6 @@ def cost_attributes(config) -> dict:
 def _reduce_replicates(ds: xr.Dataset, settings) -> None:
     """Add ``<name>_rmean``, ``_rmean_err``, ``_rchi2`` and the point labels (in place)."""
     conf = float((settings or {}).get("label_confidence", MIN_CONFIDENCE))
-    reduced = {}
     for v in REPLICATE_VARS:
         x = ds[v].transpose(..., "replicate").values
         e = ds[f"{v}_err"].transpose(..., "replicate").values
@@ -289,7 +298,6 @@ def _reduce_replicates(ds: xr.Dataset, settings) -> None:
         for idx in np.ndindex(x.shape[:-1]):
             c = combine(x[idx], e[idx])
             out[idx] = (c.mean, c.err, c.chi2_dof)
-        reduced[v] = out
         dims = [d for d in ds[v].dims if d != "replicate"]
         ln = META[v][0]
         ds[f"{v}_rmean"] = (dims, out[..., 0], {"long_name": f"replicate mean of {ln}", "units": "1"})
@@ -297,52 +305,58 @@ def _reduce_replicates(ds: xr.Dataset, settings) -> None:
         ds[f"{v}_rchi2"] = (dims, out[..., 2], {
             "long_name": f"reduced chi-square of the replicates of {v} about their mean (~1: honest errors)",
             "units": "1"})
-    ok = ds["msd_diffusive"].fillna(0).astype(bool) & ds["msd_long_enough"].fillna(0).astype(bool)
-    ok = ok.transpose(..., "replicate").values.all(axis=-1)
-    long_ok = ds["msd_long_enough"].fillna(0).astype(bool).transpose(..., "replicate").values.all(axis=-1)
-    bound = ds["cage_d_eff_bound"].transpose(..., "replicate").values
-    bound_ok = np.all(bounds_d_eff(bound), axis=-1)
-    dims = [d for d in ds["phase"].dims if d != "replicate"]
-    shape = ok.shape
-    phase = np.full(shape, -1, dtype=np.int8)
-    pconf = np.full(shape, np.nan)
-    perc = np.full(shape, -1, dtype=np.int8)
-    cconf = np.full(shape, np.nan)
-    for idx in np.ndindex(shape):
-        D, q, r = reduced["D_eff"][idx], reduced["q_mean"][idx], reduced["rho_d"][idx]
-        c = reduced["cage_msd_ratio"][idx]
-        p_broken = broken_probability(c[0], c[1]) if bound_ok[idx] and c[1] > 0 else float("nan")
-        trusted = bool(ok[idx])
-        if np.all(np.isfinite(reduced["D_eff_cr"][idx][:2])):  # the solid test (pipeline.solid_test_estimate)
-            D, trusted = reduced["D_eff_cr"][idx], bool(long_ok[idx])
-        lab = classify_phase(D[0], D[1], q[0], q[1], diffusion_ok=trusted,
-                             diffusion_note="a replicate's D_eff is not trustworthy", cage_broken=p_broken,
-                             cage_note=f"replicate-mean cage-relative MSD {c[0]:.3g} +- {c[1]:.2g} a^2",
-                             min_confidence=conf)
-        phase[idx], pconf[idx] = lab.code, lab.confidence
-        lab = classify_percolation(r[0], r[1], min_confidence=conf)
-        perc[idx], cconf[idx] = lab.code, lab.confidence
-    ds["phase_point"] = (dims, phase, {**_attrs("phase_point"), **flag_attrs(PHASE_FLAGS)})
-    ds["phase_point_confidence"] = (dims, pconf, _attrs("phase_point_confidence"))
-    ds["percolated_point"] = (dims, perc, {**_attrs("percolated_point"), **flag_attrs(PERCOLATION_FLAGS)})
-    ds["percolated_point_confidence"] = (dims, cconf, _attrs("percolated_point_confidence"))
-    _kthny_point(ds)
+    _point_labels(ds, conf, float((settings or {}).get("percolation_threshold", RHO_D_PERCOLATION)))
     _fisher_exponents(ds)
     _fss(ds)
 
 
-def _kthny_point(ds: xr.Dataset) -> None:
-    """``kthny_point``: the replicates' common KTHNY label, its lowest confidence, or
-    undetermined when they differ or one is undetermined (in place)."""
+def _point_labels(ds: xr.Dataset, conf: float, threshold: float) -> None:
+    """Point labels (in place): the phase rule on each point's replicate-combined evidence
+    (:func:`fcsweep.analysis.points.point_labels`), the KTHNY label common to the
+    replicates; with an ``initial`` dimension these are the per-start labels
+    (``<label>_start``) and the point's are the starts' common label
+    (:func:`fcsweep.analysis.points.agree`), with ``phase_hysteresis``."""
+    names = [v for v in POINT_INPUTS if v in ds]
+    vals = {v: ds[v].transpose(..., "replicate").values for v in names}
+    st = ds["status"].transpose(..., "replicate").values
+    dims = [d for d in ds["phase"].dims if d != "replicate"]
+    shape = st.shape[:-1]
+    out = {k: np.full(shape, -1, dtype=np.int8) for k in ("phase", "percolated")}
+    cf = {k: np.full(shape, np.nan) for k in ("phase", "percolated")}
+    for idx in np.ndindex(shape):
+        runs = [{v: float(vals[v][idx + (r,)]) for v in names} for r in np.flatnonzero(st[idx] == 0)]
+        ph, pc = point_labels(runs, min_confidence=conf, percolation_threshold=threshold)
+        out["phase"][idx], cf["phase"][idx] = ph.code, ph.confidence
+        out["percolated"][idx], cf["percolated"][idx] = pc.code, pc.confidence
+    out["kthny"], cf["kthny"] = _kthny_common(ds)
+    flags = {"phase": PHASE_FLAGS, "percolated": PERCOLATION_FLAGS, "kthny": KTHNY_FLAGS}
+    if "initial" not in dims:
+        for k in ("phase", "percolated", "kthny"):
+            ds[f"{k}_point"] = (dims, out[k], {**_attrs(f"{k}_point"), **flag_attrs(flags[k])})
+            ds[f"{k}_point_confidence"] = (dims, cf[k], _attrs(f"{k}_point_confidence"))
+        return
+    axis = dims.index("initial")
+    pdims = [d for d in dims if d != "initial"]
+    for k in ("phase", "percolated", "kthny"):
+        ds[f"{k}_start"] = (dims, out[k], {**_attrs(f"{k}_start"), **flag_attrs(flags[k])})
+        ds[f"{k}_start_confidence"] = (dims, cf[k], _attrs(f"{k}_start_confidence"))
+        decided, undetermined = DECIDED[k]
+        code, conf_k, hyst = agree(np.moveaxis(out[k], axis, -1), np.moveaxis(cf[k], axis, -1), decided, undetermined)
+        ds[f"{k}_point"] = (pdims, code, {**_attrs(f"{k}_point"), **flag_attrs(flags[k])})
+        ds[f"{k}_point_confidence"] = (pdims, conf_k, _attrs(f"{k}_point_confidence"))
+        if k == "phase":
+            ds["phase_hysteresis"] = (pdims, hyst, {**_attrs("phase_hysteresis"), **flag_attrs(HYSTERESIS_FLAGS)})
+
+
+def _kthny_common(ds: xr.Dataset):
+    """The replicates' common KTHNY label, its lowest confidence, or undetermined when
+    they differ or one is undetermined."""
     k = ds["kthny"].transpose(..., "replicate").values
     c = ds["kthny_confidence"].transpose(..., "replicate").values
     same = np.all(k == k[..., :1], axis=-1) & np.all(k >= 0, axis=-1)
     point = np.where(same, k[..., 0], np.where(np.any(k >= 0, axis=-1), KTHNY_UNDETERMINED, -1)).astype(np.int8)
     conf = np.where(same, np.nanmin(np.where(np.isfinite(c), c, np.inf), axis=-1), np.nan)
-    conf = np.where(np.isinf(conf), np.nan, conf)
-    dims = [d for d in ds["kthny"].dims if d != "replicate"]
-    ds["kthny_point"] = (dims, point, {**_attrs("kthny_point"), **flag_attrs(KTHNY_FLAGS)})
-    ds["kthny_point_confidence"] = (dims, conf, _attrs("kthny_point_confidence"))
+    return point, np.where(np.isinf(conf), np.nan, conf)
 
 
 def _fisher_exponents(ds: xr.Dataset) -> None:

@@ -13,12 +13,14 @@ cage is broken when cells have, on average, moved farther than a neighbour spaci
 relative to their first shell, with probability
 ``P(CR-MSD(t*) > a^2)`` from the scatter over spatially contiguous blocks of cells.
 
-Why this is the paper's criterion. A broken cage at lag ``t*`` means ``D_s >~ a^2 / (4 t*)``
-(persistent motion only makes ``MSD / 4t`` smaller than the long-time slope; sub-diffusion
-after the cage breaks can make it larger by a factor, which the margin below covers),
-i.e. ``D_eff >~ a^2 / (4 t* D0)``. The label rule accepts cage breaking as evidence of
-"not solid" only where that bound is at least ``BOUND_FACTOR`` (5) times the solid
-threshold ``1e-3`` (docs/statistics.md lists the bound at the shipped parameters).
+After the cages broke the cage-relative MSD keeps growing diffusively: its slope over
+the lags past ``t*`` gives the self-diffusion coefficient directly (``D_late``, corrected
+for the neighbours it is measured against), and the phase rule reads "solid" or "not
+solid" from it with its error (:mod:`fcsweep.analysis.phase`). The earlier rule took a
+broken cage as "not solid" only where ``a^2 / (4 t* D0)`` exceeded 5e-3; since for steady
+creep ``t* ~ a^2 / (4 D_cr)`` that bound is about D_eff itself, so every state with
+``1e-3 < D_eff < 5e-3`` stayed undetermined at any run length. The bound is still
+stored (``cage_d_eff_bound``), as information only.
 A caged solid never reaches ``a^2``: a harmonic cage holds the MSD at ``2 v0^2 / (k (k + Dr))``
 (0.16 R0^2 at k = 0.1, v0 = 0.03, Dr = 0.01, against ``a^2 = 3.8 R0^2``).
 
@@ -35,11 +37,15 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.special import j0, ndtr
 
-from fcsweep.analysis.diffusion import D_EFF_SOLID, free_diffusion
+from fcsweep.analysis.diffusion import free_diffusion
 from fcsweep.analysis.voronoi import voronoi_neighbors
 
-#: The cage-breaking bound on D_eff must exceed the solid threshold this many times.
-BOUND_FACTOR = 5.0
+#: Lags added between ``t*`` and the window's end for the slope past ``t*``.
+LATE_LAGS = 12
+#: Lags added between the grid lags around the first clear crossing, to place ``t*``.
+CROSSING_LAGS = 6
+#: Fewest lags at or past ``t*`` for a slope there (``D_late``).
+MIN_LATE_LAGS = 4
 #: Time origins averaged per lag (evenly spaced over the window; one at the whole window).
 N_ORIGINS = 12
 #: Spatially contiguous blocks per side for the error (``BLOCKS_PER_SIDE ** 2`` blocks).
@@ -77,6 +83,15 @@ class CageBreaking:
         blocks. In a fluid it tends to ``D_s (1 + 1/n)`` (n ~ 6 neighbours); in a solid to 0
         without the slow long-wavelength growth that keeps a 2-D crystal's plain MSD rising
         (Mermin-Wagner), which is why the solid test uses it.
+    D_late, D_late_err : float
+        Self-diffusion coefficient from the cage-relative MSD past ``t*`` (its diffusive
+        regime, measured only where the cages broke clearly): a quarter of its slope over
+        the lags ``>= t*`` (``LATE_LAGS`` added there), divided by ``1 + <1/n_i>`` because
+        ``n_i`` independent neighbours add ``D / n_i`` to a cage-relative D; error over the
+        spatial blocks. NaN where the cages did not break or fewer than ``MIN_LATE_LAGS``
+        lags lie past ``t*``. The fluid rule reads this one.
+    inv_neighbours : float
+        ``<1/n_i>``: Voronoi neighbour counts at the time origins.
     """
 
     spacing: float
@@ -91,9 +106,13 @@ class CageBreaking:
     F_s: np.ndarray
     D_cr: float = float("nan")
     D_cr_err: float = float("nan")
+    D_late: float = float("nan")
+    D_late_err: float = float("nan")
+    inv_neighbours: float = float("nan")
 
     def d_eff_bound(self, v0: float, Dr: float) -> float:
-        """``a^2 / (4 t* D0)``: the D_eff a broken cage at ``t*`` stands for (NaN if D0 is 0)."""
+        """``a^2 / (4 t* D0)``: the D_eff a broken cage at ``t*`` stands for (NaN if D0 is 0).
+        Stored for information; no label depends on it."""
         D0 = free_diffusion(v0, Dr)
         if not (np.isfinite(D0) and D0 > 0 and self.lag > 0):
             return float("nan")
@@ -101,22 +120,20 @@ class CageBreaking:
 
 
     def scalars(self, v0: float, Dr: float) -> dict:
-        """The cage observables as stored in ``analysis.h5`` (names of the pipeline)."""
+        """The cage observables as stored in ``analysis.h5`` (names of the pipeline; the
+        diffusion coefficients past ``t*`` in units of D0)."""
+        D0 = free_diffusion(v0, Dr)
+        D0 = D0 if np.isfinite(D0) else 0.0
         return {"neighbour_spacing": self.spacing, "cage_lag": self.lag, "cage_msd_ratio": self.ratio,
                 "cage_msd_ratio_err": self.ratio_err, "cage_broken_probability": self.p_broken,
-                "cage_d_eff_bound": self.d_eff_bound(v0, Dr), "F_s_window": self.fs, "tau_alpha": self.tau_alpha}
+                "cage_d_eff_bound": self.d_eff_bound(v0, Dr), "F_s_window": self.fs, "tau_alpha": self.tau_alpha,
+                "D_eff_cr_late": self.D_late / D0 if D0 > 0 else float("nan"),
+                "D_eff_cr_late_err": self.D_late_err / D0 if D0 > 0 else float("nan")}
 
 
 def broken_probability(ratio: float, err: float) -> float:
     """``P(ratio > 1)`` for a Gaussian estimate of the cage-relative MSD over ``a^2``."""
     return float(ndtr((ratio - 1.0) / err)) if err > 0 else float(ratio > 1.0)
-
-
-def bounds_d_eff(bound) -> np.ndarray | bool:
-    """Whether a broken cage with this ``d_eff_bound`` rules out a solid (bound finite and
-    at least ``BOUND_FACTOR`` times the solid threshold); arrays element-wise."""
-    b = np.asarray(bound, dtype=float)
-    return np.isfinite(b) & (b >= BOUND_FACTOR * D_EFF_SOLID)
 
 
 def _lag_frames(T: int, n: int = 16) -> np.ndarray:
@@ -160,6 +177,69 @@ def cage_breaking(time, unwrapped, box, *, spacing: float | None = None,
     side = np.floor(np.mod(x[0], L) / L * BLOCKS_PER_SIDE).astype(int) % BLOCKS_PER_SIDE
     block = side[:, 0] * BLOCKS_PER_SIDE + side[:, 1]
     shells = {}
+    msd, fs, per_cell, inv_n = _cage_curves(x, lags, L, k, n_origins, shells)
+    labels = np.unique(block)
+
+    def by_block(pc):
+        return np.stack([pc[:, block == b].mean(axis=1) for b in labels], axis=1) / a ** 2
+
+    blocks = by_block(per_cell)
+    ratios = msd / a ** 2
+    errs = blocks.std(axis=1, ddof=1) / np.sqrt(labels.size) if labels.size > 1 else np.full(lags.size, nan)
+    # the test lag: the first at which the cages are broken by 3 errors, else the whole window
+    clear = np.flatnonzero(ratios - 3.0 * errs > 1.0)
+    at = int(clear[0]) if clear.size else lags.size - 1
+    ratio, err = float(ratios[at]), float(errs[at])
+    p = broken_probability(ratio, err)
+    D, D_err = _late_slope(lags * h, blocks * a ** 2)
+    D_late = D_late_err = nan
+    if clear.size:
+        curves = [lags, msd, fs, blocks]
+
+        def add(more):  # the curves at more lags (frames), merged in lag order
+            more = np.setdiff1d(np.unique(np.round(more).astype(int)), curves[0])
+            if more.size:
+                m2, f2, p2, _ = _cage_curves(x, more, L, k, n_origins, shells)
+                order = np.argsort(np.concatenate([curves[0], more]))
+                for q, new in enumerate((more, m2, f2, by_block(p2))):
+                    curves[q] = np.concatenate([curves[q], new])[order]
+            return more
+
+        t_lag = lags[at]
+        if at > 0:  # the crossing between two grid lags: the first clear one among lags between
+            more = add(np.linspace(lags[at - 1], lags[at], CROSSING_LAGS + 2)[1:-1])
+            if more.size:
+                i = np.searchsorted(curves[0], more)
+                b = curves[3][i]
+                hit = np.flatnonzero(curves[1][i] / a ** 2 - 3.0 * b.std(axis=1, ddof=1) / np.sqrt(labels.size) > 1.0)
+                t_lag = more[hit[0]] if hit.size else t_lag
+        # past t* the cage-relative MSD is diffusive: more lags there give its slope
+        add(np.linspace(t_lag, T - 1, LATE_LAGS))
+        lags, msd, fs, blocks = curves
+        at = int(np.searchsorted(lags, t_lag))
+        ratio = float(msd[at] / a ** 2)
+        err = float(blocks[at].std(ddof=1) / np.sqrt(labels.size))
+        p = broken_probability(ratio, err)
+        D_late, D_late_err = _slope_past(lags[at:] * h, blocks[at:] * a ** 2)
+        D_late, D_late_err = D_late / (1.0 + inv_n), D_late_err / (1.0 + inv_n)
+    below = np.flatnonzero(fs < np.exp(-1.0))
+    if below.size == 0:
+        tau = nan
+    elif below[0] == 0:
+        tau = float(lags[0] * h)
+    else:
+        i = below[0]  # log-linear interpolation between the bracketing lags
+        f0, f1 = fs[i - 1], fs[i]
+        w = (f0 - np.exp(-1.0)) / (f0 - f1)
+        tau = float(np.exp(np.log(lags[i - 1] * h) + w * (np.log(lags[i] * h) - np.log(lags[i - 1] * h))))
+    return CageBreaking(a, float(lags[at] * h), ratio, err, p, float(fs[at]), tau, lags * h, msd, fs, D, D_err,
+                        float(D_late), float(D_late_err), float(inv_n))
+
+
+def _cage_curves(x, lags, L, k, n_origins, shells):
+    """Cage-relative MSD, ``F_s`` and per-cell mean squares at ``lags`` (frames), and
+    ``<1/n_i>`` over the cells and origins; ``shells`` caches the Voronoi shells by origin."""
+    T, N = x.shape[:2]
     msd = np.zeros(lags.size)
     fs = np.zeros(lags.size)
     per_cell = np.zeros((lags.size, N))
@@ -178,27 +258,18 @@ def cage_breaking(time, unwrapped, box, *, spacing: float | None = None,
             msd[q] += s.mean() / origins.size
             fs[q] += j0(k * np.sqrt(s)).mean() / origins.size
             per_cell[q] += s / origins.size
-    labels = np.unique(block)
-    blocks = np.stack([per_cell[:, block == b].mean(axis=1) for b in labels], axis=1) / a ** 2
-    ratios = msd / a ** 2
-    errs = blocks.std(axis=1, ddof=1) / np.sqrt(labels.size) if labels.size > 1 else np.full(lags.size, nan)
-    # the test lag: the first at which the cages are broken by 3 errors, else the whole window
-    clear = np.flatnonzero(ratios - 3.0 * errs > 1.0)
-    at = int(clear[0]) if clear.size else lags.size - 1
-    ratio, err = float(ratios[at]), float(errs[at])
-    p = broken_probability(ratio, err)
-    D, D_err = _late_slope(lags * h, blocks * a ** 2)
-    below = np.flatnonzero(fs < np.exp(-1.0))
-    if below.size == 0:
-        tau = nan
-    elif below[0] == 0:
-        tau = float(lags[0] * h)
-    else:
-        i = below[0]  # log-linear interpolation between the bracketing lags
-        f0, f1 = fs[i - 1], fs[i]
-        w = (f0 - np.exp(-1.0)) / (f0 - f1)
-        tau = float(np.exp(np.log(lags[i - 1] * h) + w * (np.log(lags[i] * h) - np.log(lags[i - 1] * h))))
-    return CageBreaking(a, float(lags[at] * h), ratio, err, p, float(fs[at]), tau, lags * h, msd, fs, D, D_err)
+    inv_n = float(np.mean([np.mean(1.0 / sh[2]) for sh in shells.values()])) if shells else float("nan")
+    return msd, fs, per_cell, inv_n
+
+
+def _slope_past(t: np.ndarray, curves: np.ndarray) -> tuple[float, float]:
+    """``slope / 4`` of curves ``(lags, blocks)`` over all the given lags (straight line
+    per block), mean over blocks and its error; NaN with fewer than ``MIN_LATE_LAGS``."""
+    if t.size < MIN_LATE_LAGS or curves.shape[1] < 2:
+        return float("nan"), float("nan")
+    X = np.stack([t, np.ones(t.size)], axis=1)
+    slopes = np.linalg.lstsq(X, curves, rcond=None)[0][0] / 4.0
+    return float(slopes.mean()), float(slopes.std(ddof=1) / np.sqrt(slopes.size))
 
 
 def _late_slope(t: np.ndarray, curves: np.ndarray) -> tuple[float, float]:

@@ -15,19 +15,21 @@ taken as Gaussian about its estimate with its 1-sigma error, so that
     P(percolated) = Phi((rho_d - 1/2) / rho_d_err),
 
 and the label is the most probable one when its probability reaches ``min_confidence``
-(default Phi(1) = 0.841: a single deciding observable one error away from its
-threshold), else *undetermined* (code 3 for the phase, 2 for percolation). A label
-whose diffusion estimate is not trustworthy (run too short for the persistence time,
-MSD slope not settled) is undetermined whatever the numbers say. The confidence
-reported is the probability of the most probable label; the reason says what decided.
+(default 0.95, the config's ``analysis.label_confidence``), else *undetermined* (code 3
+for the phase, 2 for percolation). The confidence reported is the probability of the
+most probable label; the reason says what decided.
 
-With cage evidence (the analysis pipeline always gives it) the rule is asymmetric,
-because fluidity can be shown in a finite window and solidity only bounded: *not
-solid* needs the cells to have left their cages, ``P(broken) >= min_confidence``
-(:mod:`fcsweep.analysis.cage`, where a broken cage also bounds D_eff far above 1e-3),
-and then P(fluid) = P(broken) (1 - P(<q> > 3.81)), P(soft fluid) = P(broken) P(<q> >
-3.81); *solid* needs a trustworthy D_eff with P(solid) >= min_confidence and no broken
-cage. Evidence on both sides, or neither, is undetermined with the reason.
+The phase rule is one function, :func:`phase_label`, for a run (its stored scalars) and
+for a grid point (its replicate-combined scalars, :mod:`fcsweep.analysis.points`), on a
+:class:`PhaseEvidence` built by :func:`phase_evidence`. Fluidity can be shown in a
+finite window, solidity only bounded, so the evidence differs by side: where the cells
+left their cages (``P(broken) >= min_confidence``, :mod:`fcsweep.analysis.cage`) the
+cage-relative MSD past the breaking gives D_eff in its diffusive regime
+(``D_eff_cr_late``), which decides solid against not solid with its error, and <q>
+fluid against soft fluid; without broken cages only *solid* can be decided, from a
+trustworthy ``D_eff_cr`` (:func:`solid_test_estimate`) with P(solid) (1 - P(broken)) >=
+``min_confidence``; otherwise the label is undetermined ("a longer run decides").
+:func:`classify_phase` without cage evidence is the plain D_eff test.
 """
 
 from __future__ import annotations
@@ -37,6 +39,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.special import ndtr
 
+from fcsweep.analysis.cage import broken_probability
 from fcsweep.analysis.diffusion import D_EFF_SOLID
 from fcsweep.model.shape import Q_STAR
 
@@ -51,8 +54,8 @@ PERCOLATION_UNDETERMINED = 2
 #: Codes of the percolation label.
 PERCOLATION_FLAGS = {-1: "unknown", 0: "not_percolated", 1: "percolated",
                      PERCOLATION_UNDETERMINED: "undetermined"}
-#: Default probability a label needs: Phi(1), one error away from a single threshold.
-MIN_CONFIDENCE = float(ndtr(1.0))
+#: Default probability a label needs (the ``analysis.label_confidence`` default).
+MIN_CONFIDENCE = 0.95
 
 
 def phase_code(D_eff, q_mean, *, d_solid: float = D_EFF_SOLID, q_star: float = Q_STAR):
@@ -120,7 +123,7 @@ def _fmt(x: float, e: float) -> str:
 
 def classify_phase(D_eff, D_eff_err, q_mean, q_mean_err, *, diffusion_ok: bool = True,
                    diffusion_note: str = "", cage_broken: float | None = None, cage_note: str = "",
-                   min_confidence: float = MIN_CONFIDENCE, d_solid: float = D_EFF_SOLID,
+                   D_late: float = float("nan"), D_late_err: float = float("nan"), min_confidence: float = MIN_CONFIDENCE, d_solid: float = D_EFF_SOLID,
                    q_star: float = Q_STAR) -> Label:
     """Phase label of one run or point with its confidence and the reason.
 
@@ -133,12 +136,10 @@ def classify_phase(D_eff, D_eff_err, q_mean, q_mean_err, *, diffusion_ok: bool =
         diffusive): D_eff then decides nothing, and ``diffusion_note`` is the reason.
     cage_broken : float, optional
         Probability that the cells left their cages within the window
-        (:mod:`fcsweep.analysis.cage`; NaN where that evidence does not bound D_eff above
-        the threshold). Given, the rule is asymmetric: *not solid* needs
-        ``cage_broken >= min_confidence`` (fluidity is shown in a finite window), *solid*
-        needs a trustworthy ``D_eff`` below ``d_solid`` (solidity is only bounded) and no
-        broken cage; otherwise undetermined, with ``cage_note`` in the reason. Not given
-        (None), D_eff decides both sides.
+        (:mod:`fcsweep.analysis.cage`; NaN: no cage test). Given, this is the phase rule
+        :func:`phase_label` with ``D_eff`` as the solid test and ``D_late``,
+        ``D_late_err`` as D_eff_cr_late. Not given (None), D_eff decides both sides (a
+        plain D_eff test, used where no cage test exists).
     min_confidence : float
         Probability the most probable label needs.
 
@@ -148,8 +149,9 @@ def classify_phase(D_eff, D_eff_err, q_mean, q_mean_err, *, diffusion_ok: bool =
     """
     D, De, q, qe = (float(v) for v in (D_eff, D_eff_err, q_mean, q_mean_err))
     if cage_broken is not None:
-        return _classify_with_cages(D, De, q, qe, diffusion_ok, diffusion_note, float(cage_broken), cage_note,
-                                    min_confidence, d_solid, q_star)
+        ev = PhaseEvidence(D, De, bool(diffusion_ok), diffusion_note, float(cage_broken), cage_note,
+                           float(D_late), float(D_late_err), q, qe)
+        return phase_label(ev, min_confidence=min_confidence, d_solid=d_solid, q_star=q_star)
     if not np.isfinite(D):
         return Label(PHASE_UNKNOWN, float("nan"), "D_eff not available")
     if not np.isfinite(De):
@@ -175,38 +177,141 @@ def classify_phase(D_eff, D_eff_err, q_mean, q_mean_err, *, diffusion_ok: bool =
     return Label(int(best), conf, f"P({phase_name(best)}) = {conf:.3f}")
 
 
-def _classify_with_cages(D, De, q, qe, diffusion_ok, diffusion_note, p_broken, cage_note, min_confidence,
-                         d_solid, q_star) -> Label:
-    """The asymmetric rule of :func:`classify_phase` (cage evidence given)."""
-    d_known = diffusion_ok and np.isfinite(D) and np.isfinite(De)
+@dataclass(frozen=True)
+class PhaseEvidence:
+    """What the phase rule (:func:`phase_label`) reads, for a run or a grid point.
+
+    Attributes
+    ----------
+    D_solid, D_solid_err : float
+        The solid test's D_eff and error (:func:`solid_test_estimate`).
+    solid_trusted : bool
+        Whether that estimate may decide "solid" (run long enough, slope settled).
+    trust_note : str
+        Why not, when it is not.
+    p_broken : float
+        Probability that the cells left their cages (:mod:`fcsweep.analysis.cage`); NaN:
+        no cage test.
+    cage_note : str
+        What the cage test saw.
+    D_late, D_late_err : float
+        ``D_eff_cr_late``: D_eff from the cage-relative MSD past the cage-breaking lag
+        (neighbour-corrected); NaN where the cages did not break clearly.
+    q, q_err : float
+        ``<q>`` and its error.
+    """
+
+    D_solid: float
+    D_solid_err: float
+    solid_trusted: bool
+    trust_note: str
+    p_broken: float
+    cage_note: str
+    D_late: float
+    D_late_err: float
+    q: float
+    q_err: float
+
+
+def solid_test_estimate(sc: dict) -> tuple[float, float]:
+    """D_eff and error on which the phase rule tests "solid" where the cages did not break.
+
+    The cage-relative D_eff (``D_eff_cr``, a quarter of the slope of the cage-relative MSD
+    over the last three quarters of the window) where it exists: in a fluid it tends to
+    D_eff (times 1 + 1/n for n ~ 6 neighbours), in a solid to 0, without the
+    long-wavelength fluctuations that keep the plain MSD of a 2-D crystal rising long after
+    its cages have formed (measured at N = 1024, eta = 0.1, v0 = 0.01-0.03: plain D_eff
+    1.4-2.3e-3 over 800 time units against cage-relative MSDs of 2e-4 to 2e-3 a^2;
+    docs/statistics.md). Otherwise the plain D_eff over the longest window: the whole
+    window as one block (``D_eff_long`` when there are several blocks) sees a slow cage
+    plateau that short blocks miss; else ``D_eff``.
+    """
+    if np.isfinite(sc.get("D_eff_cr", np.nan)) and np.isfinite(sc.get("D_eff_cr_err", np.nan)):
+        return float(sc["D_eff_cr"]), float(sc["D_eff_cr_err"])
+    if sc.get("n_time_blocks", 1) >= 2 and np.isfinite(sc.get("D_eff_long", np.nan)) \
+            and np.isfinite(sc.get("D_eff_long_err", np.nan)):
+        return float(sc["D_eff_long"]), float(sc["D_eff_long_err"])
+    return float(sc.get("D_eff", np.nan)), float(sc.get("D_eff_err", np.nan))
+
+
+def cage_evidence(sc: dict) -> tuple[float, str]:
+    """Probability that the cells left their cages, as the phase rule takes it, and a note.
+
+    ``P(cage_msd_ratio > 1)`` from the ratio and its error (so that a grid point's
+    replicate-combined ratio gives its own probability); NaN where the cage test could
+    not be made or has no error. ``cage_d_eff_bound`` is not read: it no longer gates anything.
+    """
+    ratio, err = float(sc.get("cage_msd_ratio", np.nan)), float(sc.get("cage_msd_ratio_err", np.nan))
+    lag = float(sc.get("cage_lag", np.nan))
+    if not np.isfinite(ratio):
+        return float("nan"), "cage test not possible (too few frames or cells)"
+    p = broken_probability(ratio, err) if np.isfinite(err) else float("nan")
+    where = f"cage-relative MSD {ratio:.3g} +- {err:.2g} a^2 over {lag:.4g} time units"
+    if not np.isfinite(p):
+        return float("nan"), f"{where}: no error"
+    if p >= 0.5:
+        return float(p), where
+    return float(p), f"no cage broken within the window ({where})"
+
+
+def _flag(sc: dict, name: str) -> bool:
+    v = float(sc.get(name, np.nan))
+    return bool(np.isfinite(v) and v >= 0.5)
+
+
+def phase_evidence(sc: dict, note: str | None = None) -> PhaseEvidence:
+    """The evidence of the phase rule from stored scalars (a run's, or a point's
+    replicate-combined ones with its flags the least favourable replicate's).
+
+    ``note`` (the pipeline's detailed wording) replaces the generic reason why the solid
+    test is not trusted; trust itself always comes from the flags: ``msd_long_enough``,
+    and ``msd_diffusive`` where there is no cage-relative D_eff.
+    """
+    D, De = solid_test_estimate(sc)
+    long_enough = _flag(sc, "msd_long_enough")
+    has_cr = np.isfinite(sc.get("D_eff_cr", np.nan)) and np.isfinite(sc.get("D_eff_cr_err", np.nan))
+    trusted = long_enough and (has_cr or _flag(sc, "msd_diffusive"))
+    why = ""
+    if not trusted:
+        why = note or ("run too short for D_eff (a time block shorter than min_block_persistence / Dr)"
+                       if not long_enough else "MSD not diffusive within the run")
+    p, cage_note = cage_evidence(sc)
+    return PhaseEvidence(D, De, trusted, why, p, cage_note, float(sc.get("D_eff_cr_late", np.nan)),
+                         float(sc.get("D_eff_cr_late_err", np.nan)), float(sc.get("q_mean", np.nan)),
+                         float(sc.get("q_mean_err", np.nan)))
+
+
+def phase_label(ev: PhaseEvidence, *, min_confidence: float = MIN_CONFIDENCE, d_solid: float = D_EFF_SOLID,
+                q_star: float = Q_STAR) -> Label:
+    """The phase rule, for a run (its scalars) and a grid point (its replicate-combined ones).
+
+    With broken cages (``p_broken >= min_confidence``) ``D_late`` (D_eff_cr_late, the
+    paper's D_eff measured in its diffusive regime) decides solid against not solid with
+    its error, and ``<q>`` fluid against soft fluid; without enough lags past the
+    breaking the label is undetermined. Without broken cages "solid" needs a trusted
+    ``D_solid`` below ``d_solid`` with ``P(solid) (1 - p_broken) >= min_confidence``;
+    anything else is undetermined (a longer run decides).
+
+    Returns
+    -------
+    Label
+    """
+    p_b = ev.p_broken
+    if np.isfinite(p_b) and p_b >= min_confidence:
+        return _broken_label(ev, min_confidence, d_solid, q_star)
+    D, De = ev.D_solid, ev.D_solid_err
+    d_known = ev.solid_trusted and np.isfinite(D) and np.isfinite(De)
     p_solid_d = 1.0 - _p_above(D, De, d_solid) if d_known else float("nan")
-    if np.isfinite(p_broken) and p_broken >= min_confidence:
-        if d_known and p_solid_d >= min_confidence:
-            return Label(PHASE_UNDETERMINED, float(max(p_broken, p_solid_d)),
-                         f"cages broken (P = {p_broken:.3f}) but D_eff = {_fmt(D, De)} reads solid "
-                         f"(P = {p_solid_d:.3f}); a longer run decides")
-        if not np.isfinite(q):
-            return Label(PHASE_UNKNOWN, float("nan"), "<q> not available")
-        if not np.isfinite(qe):
-            return Label(PHASE_UNDETERMINED, float("nan"), "<q> has no error estimate")
-        p_soft = _p_above(q, qe, q_star)
-        p = {PHASE_SOFT_FLUID: p_broken * p_soft, PHASE_FLUID: p_broken * (1.0 - p_soft)}
-        best = max(p, key=lambda k: p[k])
-        conf = float(p[best])
-        if conf < min_confidence:
-            return Label(PHASE_UNDETERMINED, conf, f"cages broken (P = {p_broken:.3f}) but <q> = {_fmt(q, qe)} "
-                                                   f"too close to {q_star:g} (P = {conf:.2f} < {min_confidence:.2f})")
-        return Label(int(best), conf, f"cages broken (P = {p_broken:.3f}); P({phase_name(best)}) = {conf:.3f}")
     if d_known and p_solid_d >= min_confidence:
-        conf = float(p_solid_d * (1.0 - p_broken if np.isfinite(p_broken) else 1.0))
+        conf = float(p_solid_d * (1.0 - p_b if np.isfinite(p_b) else 1.0))
         if conf < min_confidence:
             return Label(PHASE_UNDETERMINED, conf, f"D_eff = {_fmt(D, De)} reads solid but the cages may be "
-                                                   f"broken (P = {p_broken:.2f}); a longer run decides")
+                                                   f"broken (P = {p_b:.2f}); a longer run decides")
         why = f"P(solid) = {conf:.3f}"
-        return Label(PHASE_SOLID, conf, f"{why}; {cage_note}" if cage_note else why)
+        return Label(PHASE_SOLID, conf, f"{why}; {ev.cage_note}" if ev.cage_note else why)
     conf = float(max(p_solid_d, 1.0 - p_solid_d)) if np.isfinite(p_solid_d) else float("nan")
-    if not diffusion_ok:
-        why = diffusion_note or "D_eff estimate not trustworthy"
+    if not ev.solid_trusted:
+        why = ev.trust_note or "D_eff estimate not trustworthy"
     elif not np.isfinite(D):
         return Label(PHASE_UNKNOWN, float("nan"), "D_eff not available")
     elif not np.isfinite(De):
@@ -215,8 +320,39 @@ def _classify_with_cages(D, De, q, qe, diffusion_ok, diffusion_note, p_broken, c
         why = f"D_eff = {_fmt(D, De)} reads fluid"
     else:
         why = f"D_eff = {_fmt(D, De)} too close to the solid threshold {d_solid:g} (P = {conf:.2f})"
-    cage = cage_note or "no evidence that the cells left their cages"
+    cage = ev.cage_note or "no evidence that the cells left their cages"
     return Label(PHASE_UNDETERMINED, conf, f"{why}; {cage}; a longer run decides")
+
+
+def _broken_label(ev: PhaseEvidence, min_confidence, d_solid, q_star) -> Label:
+    """:func:`phase_label` where the cages broke: ``D_late`` and ``<q>`` decide."""
+    cages = f"cages broken (P = {ev.p_broken:.3f})"
+    D, De, q, qe = ev.D_late, ev.D_late_err, ev.q, ev.q_err
+    if not np.isfinite(D):
+        return Label(PHASE_UNDETERMINED, float("nan"), f"{cages} but too few lags past the breaking for "
+                                                       "D_eff_cr_late; a longer run decides")
+    if not (np.isfinite(De) and De > 0):
+        return Label(PHASE_UNDETERMINED, float("nan"), f"{cages} but D_eff_cr_late has no error estimate")
+    p_solid = 1.0 - _p_above(D, De, d_solid)
+    late = f"D_eff_cr_late = {_fmt(D, De)}"
+    if p_solid >= min_confidence:
+        return Label(PHASE_SOLID, float(p_solid), f"{cages}; {late}: P(solid) = {p_solid:.3f}")
+    if p_solid > 1.0 - min_confidence:
+        conf = float(max(p_solid, 1.0 - p_solid))
+        return Label(PHASE_UNDETERMINED, conf, f"{cages}; {late} too close to the solid threshold {d_solid:g} "
+                                               f"(P = {conf:.2f} < {min_confidence:.2f}); a longer run decides")
+    if not np.isfinite(q):
+        return Label(PHASE_UNKNOWN, float("nan"), "<q> not available")
+    if not np.isfinite(qe):
+        return Label(PHASE_UNDETERMINED, float("nan"), "<q> has no error estimate")
+    p_soft = _p_above(q, qe, q_star)
+    p = {PHASE_SOFT_FLUID: (1.0 - p_solid) * p_soft, PHASE_FLUID: (1.0 - p_solid) * (1.0 - p_soft)}
+    best = max(p, key=lambda k: p[k])
+    conf = float(p[best])
+    if conf < min_confidence:
+        return Label(PHASE_UNDETERMINED, conf, f"{cages}; {late} but <q> = {_fmt(q, qe)} too close to "
+                                               f"{q_star:g} (P = {conf:.2f} < {min_confidence:.2f})")
+    return Label(int(best), conf, f"{cages}; {late}: P({phase_name(best)}) = {conf:.3f}")
 
 
 def classify_percolation(rho_d, rho_d_err, *, min_confidence: float = MIN_CONFIDENCE,

@@ -21,13 +21,16 @@ Analysis settings (``DEFAULT_SETTINGS``; stored with every result):
   from time blocks and the scatter of the cells' own slopes with their spatial inefficiency
   (see :func:`fcsweep.analysis.diffusion.estimate_diffusion`);
 - cage breaking over the same frames: cage-relative MSD against the squared neighbour
-  spacing, F_s and tau_alpha (:mod:`fcsweep.analysis.cage`); the phase rule takes a fluid
-  only from broken cages and a solid only from a trustworthy D_eff (:mod:`fcsweep.analysis.phase`);
+  spacing, F_s and tau_alpha, and past the breaking the cage-relative D_eff_cr_late
+  (:mod:`fcsweep.analysis.cage`); the phase rule (:func:`fcsweep.analysis.phase.phase_label`)
+  reads D_eff_cr_late where the cages broke, else a trustworthy D_eff_cr for "solid";
 - q on up to ``shape_frames`` evenly spaced frames; Voronoi defects and clusters and
   |Psi6| on up to ``structure_frames`` frames; G6 and Gr on up to
   ``correlation_frames`` frames (they cost O(N * pairs within L/2)); every frame
   average carries the error of a correlated time series;
-- labels need the probability ``label_confidence`` (see :mod:`fcsweep.analysis.phase`);
+- labels need the probability ``label_confidence`` (default 0.95; :mod:`fcsweep.analysis.phase`),
+  and a run is percolated where rho_d exceeds ``percolation_threshold`` (default 1/2); the
+  config's ``analysis`` section sets both (:func:`config_settings`);
 - lengths of G6(r) and Gr(dx, 0) in units of R0, bin widths ``g6_dr`` and ``gr_dx``.
 """
 
@@ -46,7 +49,8 @@ import numpy as np
 from fcsweep import __version__
 from fcsweep.analysis import cage, diffusion, kthny, order, shapes, voronoi
 from fcsweep.analysis.msd import log_lag_indices, msd_curve
-from fcsweep.analysis.phase import MIN_CONFIDENCE, classify_percolation, classify_phase, phase_name
+from fcsweep.analysis.phase import (MIN_CONFIDENCE, RHO_D_PERCOLATION, cage_evidence, classify_percolation,  # noqa: F401
+                                    phase_evidence, phase_label, phase_name, solid_test_estimate)
 from fcsweep.analysis.stats import time_average
 from fcsweep.analysis.trajectory import TrajectoryError, open_trajectory
 from fcsweep.io import schema
@@ -67,7 +71,8 @@ DEFAULT_SETTINGS = {
     "fit_start": 0.2,
     "max_time_blocks": 8,
     "min_block_persistence": 8.0,
-    "label_confidence": round(MIN_CONFIDENCE, 4),
+    "label_confidence": MIN_CONFIDENCE,
+    "percolation_threshold": RHO_D_PERCOLATION,
     "subtract_drift": True,
     "msd_lags": 120,
     "shape_frames": 200,
@@ -113,6 +118,13 @@ def settings_with(overrides=None, *, transient=None) -> dict:
     if not 0.0 <= float(s["transient"]) < 1.0:
         raise ValueError(f"transient = {s['transient']} must lie in [0, 1)")
     return s
+
+
+def config_settings(config) -> dict:
+    """The analysis settings a sweep's config sets: its ``analysis`` section
+    (``label_confidence``, ``percolation_threshold``); {} for a config without one."""
+    analysis = getattr(config, "analysis", None)
+    return dict(analysis.as_dict()) if analysis is not None else {}
 
 
 # ------------------------------------------------------------------ one run: compute
@@ -267,13 +279,10 @@ def compute_observables(traj, settings: dict, *, curves: bool = True,
                 f"from the late half of the fit window {sc['D_eff_late']:.3g} +- {sc['D_eff_late_err']:.2g}, "
                 f"at another block length {sc['D_eff_long']:.3g} +- {sc['D_eff_long_err']:.2g}")
     conf = float(settings["label_confidence"])
-    p_broken, cage_note = cage_evidence(sc)
-    D_solid, D_solid_err = solid_test_estimate(sc)
-    lab = classify_phase(D_solid, D_solid_err, sc["q_mean"], sc["q_mean_err"],
-                         diffusion_ok=not note, diffusion_note=note, cage_broken=p_broken,
-                         cage_note=cage_note, min_confidence=conf)
+    lab = phase_label(phase_evidence(sc, note), min_confidence=conf)
     sc.update(phase=float(lab.code), phase_confidence=lab.confidence, phase_reason=lab.reason)
-    lab = classify_percolation(sc["rho_d"], sc["rho_d_err"], min_confidence=conf)
+    lab = classify_percolation(sc["rho_d"], sc["rho_d_err"], min_confidence=conf,
+                               threshold=float(settings["percolation_threshold"]))
     sc.update(percolated=float(lab.code), percolated_confidence=lab.confidence,
               percolated_reason=lab.reason)
     if curves:
@@ -339,46 +348,6 @@ def _kthny(r, g6_frames, dx, gr_frames, n_cells: int, confidence: float, spacing
         out[k] = float(fits.get(k, np.nan))
     out.update(kthny=float(lab.code), kthny_confidence=lab.confidence, kthny_reason=lab.reason)
     return out
-
-
-def solid_test_estimate(sc: dict) -> tuple[float, float]:
-    """D_eff and error on which the phase rule tests "solid" ("not solid" is decided by
-    cage breaking, not by D_eff).
-
-    The cage-relative D_eff (``D_eff_cr``) where it exists: in a fluid it tends to D_eff
-    (times 1 + 1/n for n ~ 6 neighbours), in a solid to 0, without the long-wavelength
-    fluctuations that keep the plain MSD of a 2-D crystal rising long after its cages
-    have formed (measured at N = 1024, eta = 0.1, v0 = 0.01-0.03: plain D_eff 1.4-2.3e-3
-    over 800 time units against cage-relative MSDs of 2e-4 to 2e-3 a^2; docs/statistics.md).
-    Otherwise the plain D_eff over the longest window: the whole window as one block
-    (``D_eff_long`` when there are several blocks) sees a slow cage plateau that short
-    blocks miss.
-    """
-    if np.isfinite(sc.get("D_eff_cr", np.nan)) and np.isfinite(sc.get("D_eff_cr_err", np.nan)):
-        return float(sc["D_eff_cr"]), float(sc["D_eff_cr_err"])
-    if sc.get("n_time_blocks", 1) >= 2 and np.isfinite(sc.get("D_eff_long", np.nan)):
-        return float(sc["D_eff_long"]), float(sc["D_eff_long_err"])
-    return float(sc["D_eff"]), float(sc["D_eff_err"])
-
-
-def cage_evidence(sc: dict) -> tuple[float, str]:
-    """Probability that the cells left their cages, as the phase rule takes it, and a note.
-
-    NaN (no evidence either way) where the cage test could not be made, or where a broken
-    cage would not bound D_eff at least ``cage.BOUND_FACTOR`` times above the solid
-    threshold (very fast or very persistent cells, a short window).
-    """
-    ratio, err, p = sc["cage_msd_ratio"], sc["cage_msd_ratio_err"], sc["cage_broken_probability"]
-    lag, bound = sc["cage_lag"], sc["cage_d_eff_bound"]
-    if not (np.isfinite(ratio) and np.isfinite(p)):
-        return float("nan"), "cage test not possible (too few frames or cells)"
-    where = f"cage-relative MSD {ratio:.3g} +- {err:.2g} a^2 over {lag:.4g} time units"
-    if not cage.bounds_d_eff(bound):
-        return float("nan"), (f"{where}; a broken cage here bounds D_eff only above {bound:.2g}, "
-                              f"less than {cage.BOUND_FACTOR:g} x the solid threshold")
-    if p >= 0.5:
-        return float(p), where
-    return float(p), f"no cage broken within the window ({where})"
 
 
 # ------------------------------------------------------------------ one run: files
@@ -509,7 +478,8 @@ def analyze_sweep(config, *, workers=1, force=False, settings=None) -> list:
     Runs that are not done (the state of :func:`fcsweep.io.sweepdir.run_state`, which
     ``fcsweep status`` shows) are reported as "skipped" with their state; analysis errors
     are reported as "failed" (the sweep goes on).  The runs are read once, so points that
-    ``fcsweep refine`` adds meanwhile are left for the next call.
+    ``fcsweep refine`` adds meanwhile are left for the next call.  The labels use the
+    config's ``analysis`` section (:func:`config_settings`), overridden by ``settings``.
 
     Returns
     -------
@@ -517,6 +487,7 @@ def analyze_sweep(config, *, workers=1, force=False, settings=None) -> list:
         status is "done", "skipped" or "failed", in run order.
     """
     transient = float(getattr(getattr(config, "run", None), "transient", DEFAULT_SETTINGS["transient"]))
+    settings = {**config_settings(config), **dict(settings or {})}
     specs = list(config.runs())
     out = {}
     todo = []

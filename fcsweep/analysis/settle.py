@@ -82,7 +82,8 @@ def judge(scalars: Mapping[str, float], *, confidence: float,
 
 
 def assess_trajectory(path, *, transient: float, confidence: float,
-                      rel_error: Mapping[str, float] | None = None, threads: int | None = None) -> Verdict:
+                      rel_error: Mapping[str, float] | None = None, threads: int | None = None,
+                      settings: Mapping | None = None) -> Verdict:
     """Analyse the frames of one (possibly partial) trajectory and :func:`judge` them.
 
     Parameters
@@ -95,6 +96,10 @@ def assess_trajectory(path, *, transient: float, confidence: float,
         See :func:`judge`.
     threads : int, optional
         freud threads for the Voronoi and order analysis (default: freud's setting).
+    settings : mapping, optional
+        Analysis settings beyond the defaults (the config's ``analysis`` section:
+        ``label_confidence``, ``percolation_threshold``), so that the check labels as
+        ``fcsweep analyze`` will.
 
     Returns
     -------
@@ -107,7 +112,7 @@ def assess_trajectory(path, *, transient: float, confidence: float,
 
         freud.parallel.set_num_threads(int(threads))
     try:
-        scalars, _, _ = compute_observables(open_trajectory(path), settings_with(transient=transient),
+        scalars, _, _ = compute_observables(open_trajectory(path), settings_with(settings, transient=transient),
                                             curves=False, psi6="psi6" in (rel_error or {}))
     except (AnalysisError, TrajectoryError) as exc:
         return Verdict(False, (f"not analysable yet: {exc}",))

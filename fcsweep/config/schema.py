@@ -94,5 +94,11 @@ def json_schema() -> dict[str, Any]:
             "grid": obj(grid_entry, minProperties=1),
             "model": {"anyOf": [obj(params), {"type": "null"}]},
             "run": run,
+            "analysis": obj({
+                "label_confidence": {"type": "number", "exclusiveMinimum": 0.5, "exclusiveMaximum": 1,
+                                     "description": "probability a label needs (default 0.95)"},
+                "percolation_threshold": {"type": "number", "exclusiveMinimum": 0, "exclusiveMaximum": 1,
+                                          "description": "rho_d above it is percolated (default 0.5)"},
+            }),
         }, ("output", "grid", "run")),
     }

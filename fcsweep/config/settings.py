@@ -26,11 +26,16 @@ FIELDS = ("position", "image", "theta", "shape_a", "shape_b")
 DEFAULT_FIELDS = FIELDS
 COMPRESSIONS = ("gzip", "lzf", "none")
 
-TOP_KEYS = ("output", "seed", "replicates", "grid", "model", "run", "description")
+TOP_KEYS = ("output", "seed", "replicates", "grid", "model", "run", "analysis", "description")
 RUN_KEYS = ("steps", "sample_every", "checkpoint_every", "transient", "until")
 UNTIL_KEYS = ("check_every", "min_steps", "confidence", "rel_error")
 #: Default ``run.until.confidence``: both labels at 95 % probability.
 UNTIL_CONFIDENCE = 0.95
+ANALYSIS_KEYS = ("label_confidence", "percolation_threshold")
+#: Default ``analysis.label_confidence``: the probability a phase, percolation or KTHNY label needs.
+LABEL_CONFIDENCE = 0.95
+#: Default ``analysis.percolation_threshold``: rho_d above it is percolated (the paper's 1/2).
+PERCOLATION_THRESHOLD = 0.5
 OUTPUT_KEYS = ("dir", "fields", "compression", "compression_level")
 RANGE_KEYS = ("start", "stop", "num", "log")
 
@@ -58,6 +63,23 @@ class UntilSettings:
     def is_check_step(self, step: int, cap: int) -> bool:
         """Whether a run checks itself at ``step`` (a check step or the cap, past ``min_steps``)."""
         return step > 0 and step >= self.min_steps and (step % self.check_every == 0 or step == cap)
+
+
+@dataclass(frozen=True)
+class AnalysisSettings:
+    """How ``fcsweep analyze`` and ``aggregate`` label runs and grid points.
+
+    ``label_confidence`` (0.5 < x < 1) is the probability a label needs, else it is
+    undetermined; ``percolation_threshold`` (0 < x < 1) the rho_d above which a run or
+    point is percolated.
+    """
+
+    label_confidence: float = LABEL_CONFIDENCE
+    percolation_threshold: float = PERCOLATION_THRESHOLD
+
+    def as_dict(self) -> dict[str, float]:
+        """The analysis settings these keys set (names of the pipeline's settings)."""
+        return {"label_confidence": self.label_confidence, "percolation_threshold": self.percolation_threshold}
 
 
 @dataclass(frozen=True)
@@ -147,6 +169,8 @@ class SweepConfig:
         Fixed model parameters with defaults filled in (swept ones excluded).
     run : RunSettings
     store : StoreSettings
+    analysis : AnalysisSettings
+        The ``analysis`` section (label confidence, percolation threshold).
     source : str
         Path of the YAML file, or ``"<string>"``.
     refined : tuple of dict
@@ -167,6 +191,7 @@ class SweepConfig:
     source: str = "<string>"
     log_axes: tuple[str, ...] = ()
     refined: tuple[Mapping[str, Any], ...] = ()
+    analysis: AnalysisSettings = field(default_factory=AnalysisSettings)
 
     @property
     def swept(self) -> list[str]:
@@ -224,6 +249,7 @@ class SweepConfig:
             "run": {**dataclasses.asdict(self.run),
                     "until": self.run.until.as_dict() if self.run.until else None},
             "store": {**dataclasses.asdict(self.store), "fields": list(self.store.fields)},
+            "analysis": self.analysis.as_dict(),
             "description": self.description,
         }
 

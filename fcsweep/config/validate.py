@@ -15,10 +15,10 @@ from fcsweep.config.errors import _FAILED, UNCHECKED, ConfigError, _Problems, _i
 from fcsweep.config.limits import (MAX_RUNS, MAX_STEPS, _check_output_path, _check_run_count,
                                    _check_run_length)
 from fcsweep.config.params import PARAM_RANGES, _allowed, _canon_value, _check_param
-from fcsweep.config.settings import (COMPRESSIONS, DEFAULT_FIELDS, FIELDS, MODEL_DEFAULTS, OUTPUT_KEYS,
-                                     RANGE_KEYS, RUN_KEYS, TOP_KEYS, UNTIL_CONFIDENCE, UNTIL_KEYS,
-                                     RunSettings, StoreSettings, SweepConfig,
-                                     UntilSettings)
+from fcsweep.config.settings import (ANALYSIS_KEYS, COMPRESSIONS, DEFAULT_FIELDS, FIELDS, LABEL_CONFIDENCE,
+                                     MODEL_DEFAULTS, OUTPUT_KEYS, PERCOLATION_THRESHOLD, RANGE_KEYS, RUN_KEYS,
+                                     TOP_KEYS, UNTIL_CONFIDENCE, UNTIL_KEYS, AnalysisSettings, RunSettings,
+                                     StoreSettings, SweepConfig, UntilSettings)
 from fcsweep.io.observables import UNTIL_OBSERVABLES
 from fcsweep.config.yaml12 import MAX_CONFIG_BYTES, MAX_NESTING, _check_structure, _read_text, _UniqueKeyLoader
 from fcsweep.model.parameters import INT_PARAMS, STR_PARAMS
@@ -195,6 +195,13 @@ def _validate(data, source: str) -> SweepConfig:
 
     model = _model_section(data.get("model") or {}, swept, grid_named, problems)
     run = _run_section(data["run"], problems) if "run" in data else _FAILED
+    analysis = _analysis_section(data.get("analysis") or {}, problems)
+    if analysis is not _FAILED and run is not _FAILED and run.until is not None \
+            and run.until.confidence < analysis.label_confidence:
+        problems.add(ConfigError(
+            f"run.until.confidence = {run.until.confidence!r} is below analysis.label_confidence = "
+            f"{analysis.label_confidence!r}; a run may stop only when its labels are decided at the label "
+            "confidence: raise run.until.confidence or lower analysis.label_confidence"))
     if not any(x is _FAILED for x in (run, grid, model)):
         problems.attempt(_check_run_length, run, grid, model)
     problems.raise_if_any()
@@ -210,6 +217,7 @@ def _validate(data, source: str) -> SweepConfig:
         description=description,
         source=source,
         log_axes=log_axes,
+        analysis=analysis,
     )
 
 
@@ -286,6 +294,29 @@ def _model_section(model_in, swept: set, grid_named: bool, problems: _Problems):
         else:
             model[name] = default
     return model if problems.count == first and _FAILED not in model.values() else _FAILED
+
+
+def _analysis_section(analysis_in, problems: _Problems):
+    """The :class:`AnalysisSettings` of the ``analysis`` section, or :data:`_FAILED`."""
+    if not isinstance(analysis_in, Mapping):
+        problems.add(ConfigError(f"analysis = {_show(analysis_in)} must be a mapping with keys "
+                                 f"{', '.join(ANALYSIS_KEYS)}"))
+        return _FAILED
+    first = problems.count
+    problems.keys(analysis_in, ANALYSIS_KEYS, "in analysis: ")
+    conf = problems.attempt(_real, analysis_in.get("label_confidence", LABEL_CONFIDENCE),
+                            "analysis.label_confidence", "allowed 0.5 < label_confidence < 1")
+    if conf is not _FAILED and not 0.5 < conf < 1.0:
+        problems.add(ConfigError(f"analysis.label_confidence = {conf!r} is out of range; allowed "
+                                 "0.5 < label_confidence < 1 (the probability a label needs)"))
+    thr = problems.attempt(_real, analysis_in.get("percolation_threshold", PERCOLATION_THRESHOLD),
+                           "analysis.percolation_threshold", "allowed 0 < percolation_threshold < 1")
+    if thr is not _FAILED and not 0.0 < thr < 1.0:
+        problems.add(ConfigError(f"analysis.percolation_threshold = {thr!r} is out of range; allowed "
+                                 "0 < percolation_threshold < 1 (defect fraction rho_d)"))
+    if problems.count > first:
+        return _FAILED
+    return AnalysisSettings(float(conf), float(thr))
 
 
 def _run_section(run_in, problems: _Problems):

@@ -74,7 +74,8 @@ OBSERVABLES: dict[str, Observable] = {o.name: o for o in (
                                  "spatial inefficiency D_eff_g_cells"),
     _O("D_eff_late", "run", "D_eff from the upper half of the MSD fit window (settling check)"),
     _O("D_eff_late_err", "run", "1-sigma error of D_eff_late"),
-    _O("D_eff_long", "run", "D_eff at another block length: the whole run, or half blocks (settling check)"),
+    _O("D_eff_long", "run", "D_eff at another block length: the whole run, or half blocks (settling check; the "
+                            "solid test without D_eff_cr)", replicate=True),
     _O("D_eff_long_err", "run", "1-sigma error of D_eff_long"),
     _O("msd_diffusive", "run", "1 if the MSD slope has settled within the run, else 0"),
     _O("msd_long_enough", "run", "1 if a time block spans at least min_block_persistence / Dr, else 0"),
@@ -115,14 +116,19 @@ OBSERVABLES: dict[str, Observable] = {o.name: o for o in (
        replicate=True),
     _O("cage_msd_ratio_err", "run", "1-sigma error of cage_msd_ratio (spatially contiguous cell blocks)"),
     _O("cage_broken_probability", "run", "probability that cage_msd_ratio > 1"),
-    _O("cage_d_eff_bound", "run", "D_eff a broken cage stands for: a^2 / (4 cage_lag D0)"),
+    _O("cage_d_eff_bound", "run", "D_eff a broken cage stands for: a^2 / (4 cage_lag D0) (information only; no "
+                                  "label reads it)"),
     _O("F_s_window", "run", "self-intermediate scattering function of cage-relative displacements at k = 2 pi / a "
                             "and the lag cage_lag"),
     _O("tau_alpha", "run", "structural relaxation time: lag where F_s first falls below 1/e (time units; NaN: not "
                            "within the window)"),
     _O("D_eff_cr", "run", "cage-relative D_eff: a quarter of the late slope of the cage-relative MSD over D0 (the "
-                          "solid test)", replicate=True),
+                          "solid test where the cages did not break)", replicate=True),
     _O("D_eff_cr_err", "run", "1-sigma error of D_eff_cr (spatially contiguous cell blocks)"),
+    _O("D_eff_cr_late", "run", "D_eff past the cage breaking: a quarter of the slope of the cage-relative MSD over "
+                               "the lags >= cage_lag, over D0 (1 + <1/n>) (n: Voronoi neighbours); NaN where the "
+                               "cages did not break (the fluid rule)", replicate=True),
+    _O("D_eff_cr_late_err", "run", "1-sigma error of D_eff_cr_late (spatially contiguous cell blocks)"),
     _O("eta_T", "run", "algebraic decay exponent of the G_r(dx, 0) - 1 peak envelope"),
     _O("eta_T_err", "run", "1-sigma error of eta_T"),
     _O("xi_T", "run", "exponential decay length of the G_r(dx, 0) - 1 peak envelope (units of R0)"),
@@ -149,11 +155,12 @@ OBSERVABLES: dict[str, Observable] = {o.name: o for o in (
     _O("msd", "curve", "drift-subtracted mean squared displacement (R0^2)", axis="lag_time"),
     _O("G6", "curve", "bond-orientational correlation Re <psi6_i psi6_j*>(r)", axis="r"),
     _O("Gr", "curve", "translational correlation G_r(dx, 0) along the mean hexatic axis, ideal gas = 1", axis="dx"),
-    _O("phase", "label", "phase label: solid if D_eff < 1e-3, else soft fluid if <q> > 3.81, else fluid; fluid and "
-                         "soft fluid need broken cages, solid a trustworthy D_eff; undetermined below the required "
-                         "confidence"),
+    _O("phase", "label", "phase label: solid if D_eff < 1e-3, else soft fluid if <q> > 3.81, else fluid; with "
+                         "broken cages D_eff_cr_late decides, without them only a trustworthy D_eff_cr < 1e-3 "
+                         "(solid); undetermined below the required confidence"),
     _O("phase_reason", "text", "why the phase label is what it is", units=""),
-    _O("percolated", "label", "defect percolation label: rho_d > 1/2; undetermined below the required confidence"),
+    _O("percolated", "label", "defect percolation label: rho_d > percolation_threshold (default 1/2); undetermined "
+                              "below the required confidence"),
     _O("kthny", "label", "KTHNY label from the decay of G_r(dx, 0) peaks and G6(r): solid (G_r algebraic, eta_T <= "
                          "1/3), hexatic (G_r short-ranged, G6 algebraic with eta_6 <= 1/4), liquid (both short-"
                          "ranged)"),
@@ -161,10 +168,22 @@ OBSERVABLES: dict[str, Observable] = {o.name: o for o in (
     _O("kthny_point", "dataset", "KTHNY label common to the replicates (undetermined when they differ)"),
     _O("kthny_point_confidence", "dataset", "lowest replicate confidence of kthny_point"),
     _O("percolated_reason", "text", "why the percolation label is what it is", units=""),
-    _O("phase_point", "dataset", "phase label of the replicate means"),
-    _O("phase_point_confidence", "dataset", "probability of phase_point given the replicate-mean errors"),
-    _O("percolated_point", "dataset", "percolation label of the replicate mean of rho_d"),
+    _O("phase_point", "dataset", "phase label of the grid point: the phase rule on the replicate means (errors "
+                                 "inflated by their scatter); with both starts, their common label"),
+    _O("phase_point_confidence", "dataset", "probability of phase_point given the replicate-mean errors (both "
+                                            "starts: the smaller)"),
+    _O("percolated_point", "dataset", "percolation label of the replicate mean of rho_d (both starts: their common "
+                                      "label)"),
     _O("percolated_point_confidence", "dataset", "probability of percolated_point"),
+    _O("phase_start", "dataset", "phase label of each start (dimension initial): the phase rule on its replicate "
+                                 "means"),
+    _O("phase_start_confidence", "dataset", "probability of phase_start"),
+    _O("percolated_start", "dataset", "percolation label of each start (dimension initial)"),
+    _O("percolated_start_confidence", "dataset", "probability of percolated_start"),
+    _O("kthny_start", "dataset", "KTHNY label common to the replicates of each start (dimension initial)"),
+    _O("kthny_start_confidence", "dataset", "lowest replicate confidence of kthny_start"),
+    _O("phase_hysteresis", "dataset", "whether the starts' phase labels agree: agree, disagree, one_sided (one "
+                                      "start decided or present), unknown"),
     _O("seed", "text", "random seed of the run (decimal string)", units=""),
     _O("tau_fisher", "dataset", "Fisher exponent of the defect cluster sizes (replicates pooled; critical 187/91)"),
     _O("tau_fisher_err", "dataset", "1-sigma error of tau_fisher"),

@@ -311,16 +311,17 @@ SUMMARY_STYLE = {"solid": ("h", OKABE_ITO["blue"], "solid"),
 def summary_labels(ds, select=None) -> np.ndarray:
     """The summary label of every point of the (v0, eta) plane: the KTHNY label (solid,
     hexatic, liquid) where it is decided, with a liquid whose phase is soft fluid called
-    ``soft_fluid``; the phase label (solid, fluid -> liquid, soft fluid) where the KTHNY
-    label is unknown; ``undetermined`` or ``unknown`` otherwise (``none`` where no run
-    exists: an empty ``run_id``).  Needs ``kthny``."""
+    ``soft_fluid``; the phase label (solid, fluid -> liquid, soft fluid) wherever the KTHNY
+    label is not decided (undetermined or unknown: at N < 4096 it never is);
+    ``undetermined`` where neither is decided and one is undetermined, else ``unknown``
+    (``none`` where no run exists: an empty ``run_id``).  Needs ``kthny``."""
     kthny = _phase_words(ds, ("v0", "eta"), select, var="kthny", default=KTHNY_FLAGS)
     phase = _phase_words(ds, ("v0", "eta"), select) if "phase" in ds else np.full(kthny.shape, "unknown", object)
     out = np.full(kthny.shape, "unknown", dtype=object)
     for word in ("solid", "hexatic", "liquid", "undetermined"):
         out[kthny == word] = word
     out[(kthny == "liquid") & (phase == "soft_fluid")] = "soft_fluid"
-    from_phase = kthny == "unknown"
+    from_phase = (kthny == "unknown") | (kthny == "undetermined")
     out[from_phase & (phase == "solid")] = "solid"
     out[from_phase & (phase == "fluid")] = "liquid"
     out[from_phase & (phase == "soft_fluid")] = "soft_fluid"

@@ -1,0 +1,121 @@
+"""Labels of a grid point: the one phase rule on its replicate-combined evidence, and the
+agreement of its two starts (``initial``: lattice, disordered) where the grid has both.
+
+A point's evidence (:func:`combine_runs`) is what the phase rule reads for a run, with
+every number the replicate mean of :func:`fcsweep.analysis.stats.combine` (its error
+scaled up by ``sqrt(chi2/dof)`` when the replicates scatter more than their errors allow)
+and every trust flag the least favourable replicate's. A point with one replicate thus
+carries its run's label and confidence (:func:`point_labels`, the function the aggregate
+calls per point).
+
+With an ``initial`` dimension the labels per start (``phase_start``, ...) come from that
+rule, and the point's label (``phase_point``, ...) is the starts' common decided label
+with the smaller confidence, else undetermined; ``phase_hysteresis`` says whether the
+starts agree (:data:`HYSTERESIS_FLAGS`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from fcsweep.analysis.phase import (KTHNY_UNDETERMINED, MIN_CONFIDENCE, PERCOLATION_UNDETERMINED,
+                                    PHASE_UNDETERMINED, RHO_D_PERCOLATION, Label, classify_percolation,
+                                    phase_evidence, phase_label)
+from fcsweep.analysis.stats import combine
+
+#: Numbers the labels read, combined over replicates (each with ``<name>_err``).
+COMBINED = ("D_eff", "D_eff_long", "D_eff_cr", "D_eff_cr_late", "cage_msd_ratio", "q_mean", "rho_d")
+#: Trust flags and counts: a point takes the smallest over its replicates.
+LEAST = ("msd_long_enough", "msd_diffusive", "n_time_blocks")
+#: Codes and CF flag meanings of ``phase_hysteresis``.
+HYSTERESIS_UNKNOWN, HYSTERESIS_AGREE, HYSTERESIS_DISAGREE, HYSTERESIS_ONE_SIDED = -1, 0, 1, 2
+HYSTERESIS_FLAGS = {HYSTERESIS_UNKNOWN: "unknown", HYSTERESIS_AGREE: "agree", HYSTERESIS_DISAGREE: "disagree",
+                    HYSTERESIS_ONE_SIDED: "one_sided"}
+
+
+def combine_runs(runs) -> dict:
+    """The evidence of a grid point from its analysed runs' scalars.
+
+    Parameters
+    ----------
+    runs : sequence of dict
+        Scalars of each analysed replicate (names of ``analysis.h5``).
+
+    Returns
+    -------
+    dict
+        ``<name>``, ``<name>_err`` for :data:`COMBINED` (replicate mean and its error),
+        the smallest of each of :data:`LEAST` (NaN counts as 0), ``cage_lag`` (mean).
+    """
+    runs = list(runs)
+    out = {}
+    for v in COMBINED:
+        c = combine([r.get(v, np.nan) for r in runs], [r.get(f"{v}_err", np.nan) for r in runs])
+        out[v], out[f"{v}_err"] = c.mean, c.err
+    for v in LEAST:
+        vals = [float(r.get(v, np.nan)) for r in runs]
+        out[v] = float(np.min(np.nan_to_num(vals, nan=0.0))) if vals else float("nan")
+    lags = [float(r.get("cage_lag", np.nan)) for r in runs]
+    out["cage_lag"] = float(np.nanmean(lags)) if np.any(np.isfinite(lags)) else float("nan")
+    return out
+
+
+def point_labels(runs, *, min_confidence: float = MIN_CONFIDENCE,
+                 percolation_threshold: float = RHO_D_PERCOLATION) -> tuple[Label, Label]:
+    """Phase and percolation labels of a grid point from its analysed runs' scalars.
+
+    Returns
+    -------
+    phase, percolated : Label
+        Unknown (-1) where no run was analysed.
+    """
+    runs = list(runs)
+    if not runs:
+        nan = float("nan")
+        return Label(-1, nan, "no analysed run"), Label(-1, nan, "no analysed run")
+    sc = combine_runs(runs)
+    note = "a replicate's D_eff is not trustworthy" if len(runs) > 1 else None
+    phase = phase_label(phase_evidence(sc, note), min_confidence=min_confidence)
+    perc = classify_percolation(sc["rho_d"], sc["rho_d_err"], min_confidence=min_confidence,
+                                threshold=percolation_threshold)
+    return phase, perc
+
+
+def agree(codes, confidences, decided, undetermined: int):
+    """The common label of several starts (last axis): a decided code that every present
+    start (code >= 0) has, with their smallest confidence; else ``undetermined``; -1
+    where no start is present.
+
+    Returns
+    -------
+    code : ndarray of int8
+    confidence : ndarray of float
+    hysteresis : ndarray of int8
+        :data:`HYSTERESIS_FLAGS`: disagree where two decided starts differ, agree where
+        every start is present and decided alike (two or more), one_sided where only one
+        start is decided or present, unknown where none is decided.
+    """
+    k = np.asarray(codes)
+    c = np.asarray(confidences, dtype=float)
+    present = k >= 0
+    dec = np.isin(k, list(decided))
+    n_dec = dec.sum(axis=-1)
+    big, small = np.iinfo(np.int16).max, np.iinfo(np.int16).min
+    hi = np.where(dec, k, small).max(axis=-1)
+    lo = np.where(dec, k, big).min(axis=-1)
+    all_same = (n_dec == present.sum(axis=-1)) & (n_dec >= 1) & (hi == lo)
+    code = np.where(all_same, hi, np.where(present.any(axis=-1), undetermined, -1)).astype(np.int8)
+    cmin = np.min(np.where(dec & np.isfinite(c), c, np.inf), axis=-1)
+    conf = np.where(all_same & np.isfinite(cmin), cmin, np.nan)
+    hyst = np.full(code.shape, HYSTERESIS_UNKNOWN, dtype=np.int8)
+    hyst[n_dec == 1] = HYSTERESIS_ONE_SIDED
+    hyst[(n_dec >= 2) & (hi == lo) & (n_dec == k.shape[-1])] = HYSTERESIS_AGREE
+    hyst[(n_dec >= 2) & (hi == lo) & (n_dec < k.shape[-1])] = HYSTERESIS_ONE_SIDED
+    hyst[(n_dec >= 2) & (hi != lo)] = HYSTERESIS_DISAGREE
+    hyst[(n_dec == 0) & (present.sum(axis=-1) == 1)] = HYSTERESIS_ONE_SIDED
+    return code, conf, hyst
+
+
+#: Decided codes of each label, and its undetermined code.
+DECIDED = {"phase": ((0, 1, 2), PHASE_UNDETERMINED), "percolated": ((0, 1), PERCOLATION_UNDETERMINED),
+           "kthny": ((0, 1, 2), KTHNY_UNDETERMINED)}
