@@ -3,7 +3,7 @@
 Uniformly random centres in the lattice's periodic box would overlap arbitrarily deeply
 (pairs at distance ~0 are common at area fraction 0.95); a soft-disc pre-relaxation
 (harmonic repulsion of discs of radius R0, gradient descent with minimum image) removes
-those deep overlaps before the model's own dynamics relaxes positions and shapes
+those deep overlaps, and only those, before the model's own dynamics relaxes positions and shapes
 (:meth:`fcsweep.simulation.Simulation.from_disordered`).  Everything random here comes
 from :func:`start_rng`, a stream of its own, so the dynamics' noise stream is untouched.
 """
@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["DISORDERED_STREAM", "SOFT_DISC_STEP", "SOFT_DISC_ITERATIONS", "SOFT_DISC_TOLERANCE",
+__all__ = ["DISORDERED_STREAM", "SOFT_DISC_STEP", "SOFT_DISC_ITERATIONS", "SOFT_DISC_DEPTH",
            "start_rng", "random_centres", "soft_disc_pairs", "soft_disc_relax"]
 
 #: Second word of the seed sequence of the start's own stream (ASCII "disr"); any
@@ -23,8 +23,11 @@ DISORDERED_STREAM = 0x64697372
 SOFT_DISC_STEP = 0.1
 #: Iterations at most of the pre-relaxation.
 SOFT_DISC_ITERATIONS = 1000
-#: The pre-relaxation stops when no centre moves more than this (R0) in one iteration.
-SOFT_DISC_TOLERANCE = 1e-4
+#: The pre-relaxation stops once no two discs overlap deeper than this (R0): the depth the
+#: model's own dynamics resolves (tests/test_simulation.py).  Relaxing monodisperse discs
+#: further at area fraction 0.95 crystallises them (|Psi6| 0.65-1 at N = 144 after 1000
+#: iterations, 0.1-0.3 when stopped here).
+SOFT_DISC_DEPTH = 0.5
 
 
 def start_rng(seed: int) -> np.random.Generator:
@@ -95,8 +98,9 @@ def soft_disc_pairs(pos: np.ndarray, box, cutoff: float):
 
 
 def soft_disc_relax(pos, box, R0: float = 1.0, *, step: float = SOFT_DISC_STEP,
-                    iterations: int = SOFT_DISC_ITERATIONS, tolerance: float = SOFT_DISC_TOLERANCE):
-    """Relax discs of radius ``R0`` with harmonic repulsion ``(2 R0 - r)^2 / 2`` by gradient descent.
+                    iterations: int = SOFT_DISC_ITERATIONS, depth: float = SOFT_DISC_DEPTH):
+    """Push discs of radius ``R0`` apart (harmonic repulsion ``(2 R0 - r)^2 / 2``, gradient
+    descent) until no two overlap deeper than ``depth * R0``.
 
     Parameters
     ----------
@@ -106,9 +110,12 @@ def soft_disc_relax(pos, box, R0: float = 1.0, *, step: float = SOFT_DISC_STEP,
         Periodic box ``(Lx, Ly)``.
     R0 : float
         Disc radius.
-    step, iterations, tolerance : float, int, float
-        Descent step (R0 per unit force), iteration cap, and the largest move per
-        iteration (R0) below which the descent stops.
+    step : float
+        Descent step (R0 per unit force).
+    iterations : int
+        Iterations at most.
+    depth : float
+        Deepest overlap (R0) at which the descent stops.
 
     Returns
     -------
@@ -120,16 +127,16 @@ def soft_disc_relax(pos, box, R0: float = 1.0, *, step: float = SOFT_DISC_STEP,
     box = np.asarray(box, float)
     pos = np.array(pos, float) % box
     sigma = 2.0 * R0
+    N = len(pos)
     done = 0
-    for done in range(1, int(iterations) + 1):
+    while done < int(iterations):
         i, j, d = soft_disc_pairs(pos, box, sigma)
         r = np.sqrt(np.einsum("ij,ij->i", d, d))
+        if r.size == 0 or r.min() >= sigma - depth * R0:
+            break
         # coincident centres (probability zero) get no force this iteration
         push = np.where(r > 0, (sigma - r) / np.where(r > 0, r, 1.0), 0.0)[:, None] * d
-        N = len(pos)
         force = np.stack([np.bincount(j, push[:, k], N) - np.bincount(i, push[:, k], N) for k in (0, 1)], axis=1)
-        move = step * R0 * force
-        pos = (pos + move) % box
-        if np.abs(move).max(initial=0.0) < tolerance * R0:
-            break
+        pos = (pos + step * R0 * force) % box
+        done += 1
     return pos, done
