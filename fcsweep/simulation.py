@@ -215,10 +215,12 @@ class Simulation:
         **params
             The other model parameters by name (``eta`` and ``v0`` required; the rest
             default to :data:`fcsweep.model.parameters.DEFAULTS`): the fields of
-            :class:`SimParams`, each converted to its declared type.  ``initial`` is
-            recorded as given; the state is the lattice whatever it says.
+            :class:`SimParams`, each converted to its declared type (``initial``, if
+            given, is recorded as ``"lattice"``: :meth:`create` dispatches on it).
         """
         p = cls._params(N, seed, params, "from_lattice")
+        if p.initial != "lattice":
+            p = dataclasses.replace(p, initial="lattice")
         pos, box = hexagonal_lattice(p.N, p.density, p.R0)
         rng = np.random.Generator(np.random.PCG64(p.seed))
         theta = rng.uniform(0.0, 2.0 * np.pi, p.N)

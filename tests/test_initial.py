@@ -95,6 +95,8 @@ def test_a_wrong_initial_names_the_key_and_the_choices():
         parse_config(CONFIG.format(extra="  initial: hex"))
     with pytest.raises(ValueError, match="initial must be one of"):
         Simulation.create(16, seed=1, eta=0.1, v0=0.0, initial="hex")
+    # the explicit constructors record the start they make
+    assert Simulation.from_lattice(16, seed=1, eta=0.1, v0=0.0, initial="disordered").params.initial == "lattice"
 
 
 # ------------------------------------------------------------------ the disordered start
