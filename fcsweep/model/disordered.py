@@ -26,7 +26,7 @@ SOFT_DISC_ITERATIONS = 1000
 #: The pre-relaxation stops once no two discs overlap deeper than this (R0): the depth the
 #: model's own dynamics resolves (tests/test_simulation.py).  Relaxing monodisperse discs
 #: further at area fraction 0.95 crystallises them (|Psi6| 0.65-1 at N = 144 after 1000
-#: iterations, 0.1-0.3 when stopped here).
+#: iterations, 0.06-0.22 when stopped here).
 SOFT_DISC_DEPTH = 0.5
 
 
