@@ -27,8 +27,9 @@ from .kernels.step import LIST_FULL, NONFINITE, OK, run_chunk
 from .kernels.api import param_vector
 from .kernels.workspace import quadrature_code, workspace_for
 from .model.integrators import DEFAULT_INTEGRATOR, INTEGRATORS, contact_parameters, integrator_problem
+from .model.disordered import random_centres, soft_disc_relax, start_rng
 from .model.lattice import hexagonal_lattice, lattice_box
-from .model.parameters import DEFAULTS, PARAMETERS, SIGNS
+from .model.parameters import DEFAULTS, INITIAL_STATES, PARAMETERS, SIGNS
 from .model.shape import ADMISSIBLE_BOUND, PROJECTION_MARGIN, contour_points_problem, dt_problem
 
 __all__ = ["INTEGRATORS", "SimParams", "Simulation", "SimulationError", "State"]
@@ -39,6 +40,9 @@ CHUNK = 256
 #: above which advance() warns: shapes pinned at the bound are a sign of too large a dt
 #: (docs/model.md: at eta = 0.03, dt = 0.2 gives <q> = 4.5 instead of 3.7 while staying finite).
 PINNED_WARNING = 0.25
+#: Duration (time units) of the model's own relaxation at v0 = 0 that ends the
+#: ``disordered`` start (docs/model.md).
+RELAX_TIME = 20.0
 #: Cells per thread below which extra threads cost more in synchronisation (three
 #: parallel regions per step) than they save; results do not depend on the threads.
 CELLS_PER_THREAD = 512
@@ -71,6 +75,7 @@ class SimParams:
     mu_theta: float = DEFAULTS["mu_theta"]
     mu_shape: float = DEFAULTS["mu_shape"]
     integrator: str = DEFAULTS["integrator"]
+    initial: str = DEFAULTS["initial"]
 
     def __post_init__(self):
         for name, p in PARAMETERS.items():
@@ -89,6 +94,8 @@ class SimParams:
         problem = integrator_problem(self.integrator, self.quadrature, self.modes)
         if problem:
             raise ValueError(problem)
+        if self.initial not in INITIAL_STATES:
+            raise ValueError(f"initial must be one of {list(INITIAL_STATES)}; got {self.initial!r}")
         for name in (n for n, p in PARAMETERS.items() if p.type is float):
             if not math.isfinite(getattr(self, name)):
                 raise ValueError(f"{name} must be finite; got {getattr(self, name)!r}")
@@ -146,7 +153,8 @@ class Simulation:
     with each contact's approach rate, solved by Jacobi sweeps; arc quadrature only);
     see :mod:`fcsweep.model.integrators`.
 
-    Use :meth:`from_lattice` for docs/model.md's initial state, :meth:`advance` to integrate,
+    Use :meth:`create` for the initial state ``params.initial`` names (docs/model.md:
+    :meth:`from_lattice` or :meth:`from_disordered`), :meth:`advance` to integrate,
     and :meth:`to_checkpoint` / :meth:`from_checkpoint` (or :meth:`save` / :meth:`load`)
     to continue a run bit for bit.
     """
@@ -170,6 +178,30 @@ class Simulation:
         )
 
     # ------------------------------------------------------------------ construction
+    @staticmethod
+    def _params(N, seed, params, caller) -> SimParams:
+        unknown = sorted(set(params) - set(PARAMETERS) | ({"N"} & set(params)))
+        if unknown:
+            raise TypeError(f"{caller}() got unexpected keyword arguments {unknown}")
+        return SimParams(N=int(N), seed=int(seed), **{k: PARAMETERS[k].type(v) for k, v in params.items()})
+
+    @classmethod
+    def create(cls, N, *, seed, **params) -> "Simulation":
+        """The initial state ``params["initial"]`` names (default ``"lattice"``).
+
+        Parameters
+        ----------
+        N, seed, **params
+            As for :meth:`from_lattice`.
+
+        Returns
+        -------
+        Simulation
+            :meth:`from_lattice` or :meth:`from_disordered`.
+        """
+        p = cls._params(N, seed, params, "create")
+        return (cls.from_disordered if p.initial == "disordered" else cls.from_lattice)(N, seed=seed, **params)
+
     @classmethod
     def from_lattice(cls, N, *, seed, **params) -> "Simulation":
         """Cells on the n x n hexagonal lattice, circular, with uniform random polarity.
@@ -183,18 +215,57 @@ class Simulation:
         **params
             The other model parameters by name (``eta`` and ``v0`` required; the rest
             default to :data:`fcsweep.model.parameters.DEFAULTS`): the fields of
-            :class:`SimParams`, each converted to its declared type.
+            :class:`SimParams`, each converted to its declared type (``initial``, if
+            given, is recorded as ``"lattice"``: :meth:`create` dispatches on it).
         """
-        unknown = sorted(set(params) - set(PARAMETERS) | ({"N"} & set(params)))
-        if unknown:
-            raise TypeError(f"from_lattice() got unexpected keyword arguments {unknown}")
-        p = SimParams(N=int(N), seed=int(seed), **{k: PARAMETERS[k].type(v) for k, v in params.items()})
+        p = cls._params(N, seed, params, "from_lattice")
+        if p.initial != "lattice":
+            p = dataclasses.replace(p, initial="lattice")
         pos, box = hexagonal_lattice(p.N, p.density, p.R0)
         rng = np.random.Generator(np.random.PCG64(p.seed))
         theta = rng.uniform(0.0, 2.0 * np.pi, p.N)
         M1 = max(p.modes - 1, 0)
         state = State(pos=pos, image=np.zeros((p.N, 2), np.int64), theta=theta,
                       a=np.zeros((p.N, M1)), b=np.zeros((p.N, M1)), box=box)
+        return cls(p, state, rng)
+
+    @classmethod
+    def from_disordered(cls, N, *, seed, relax_time: float = RELAX_TIME, **params) -> "Simulation":
+        """An isotropic start: random centres in the lattice's box, relaxed at v0 = 0.
+
+        Centres are uniform in the box, then pushed apart as soft discs
+        (:func:`fcsweep.model.disordered.soft_disc_relax`), then the model itself runs
+        ``relax_time`` at v0 = 0 without noise and with the polarities held
+        (``Dr = mu_theta = 0``) under the run's dt, quadrature and integrator, so that
+        positions and shapes relax.  All of it draws from the start's own stream
+        (:func:`fcsweep.model.disordered.start_rng`); the polarities and then the noise come
+        from ``PCG64(seed)`` exactly as in :meth:`from_lattice`.  The state starts at step 0.
+
+        Parameters
+        ----------
+        N, seed, **params
+            As for :meth:`from_lattice` (``initial`` is recorded as ``"disordered"``).
+        relax_time : float
+            Duration of the model relaxation (time units).
+
+        Raises
+        ------
+        SimulationError
+            If the relaxation becomes unstable (the message names a safer dt).
+        """
+        p = dataclasses.replace(cls._params(N, seed, params, "from_disordered"), initial="disordered")
+        box = p.box
+        srng = start_rng(p.seed)
+        pos, _ = soft_disc_relax(random_centres(p.N, box, srng), box, p.R0)
+        rng = np.random.Generator(np.random.PCG64(p.seed))
+        theta = rng.uniform(0.0, 2.0 * np.pi, p.N)
+        M1 = max(p.modes - 1, 0)
+        state = State(pos=pos, image=np.zeros((p.N, 2), np.int64), theta=theta.copy(),
+                      a=np.zeros((p.N, M1)), b=np.zeros((p.N, M1)), box=box.copy())
+        relax = cls(dataclasses.replace(p, v0=0.0, Dr=0.0, mu_theta=0.0), state, srng)
+        relax.advance(int(round(relax_time / p.dt)))
+        state = State(pos=relax.state.pos, image=np.zeros((p.N, 2), np.int64), theta=theta,
+                      a=relax.state.a, b=relax.state.b, box=box)
         return cls(p, state, rng)
 
     # ------------------------------------------------------------------ dynamics
@@ -306,6 +377,7 @@ class Simulation:
         stored = json.loads(str(scalar(ck["params_json"])))
         stored.setdefault("quadrature", "binary")  # the only rule before the option existed
         stored.setdefault("integrator", DEFAULT_INTEGRATOR)  # the only scheme before the option existed
+        stored.setdefault("initial", "lattice")  # the only start before the option existed
         params = SimParams(**stored)
         rng = np.random.Generator(np.random.PCG64())
         rng.bit_generator.state = json.loads(str(scalar(ck["rng_state_json"])))

@@ -209,6 +209,25 @@ def test_any_swept_parameter_becomes_a_dimension(tmp_path):
     assert paths and all(p.stat().st_size > 0 for p in paths)
 
 
+def test_initial_becomes_a_string_dimension(tmp_path):
+    """Sweeping the start (``initial: [lattice, disordered]``) gives a string coordinate
+    ``initial`` with the table's long name and no units, one label per start."""
+    text = YAML.replace("  eta: [0.01, 0.1]\n  v0: [0.03, 0.06]\n", "  eta: [0.1]\n  initial: [lattice, disordered]\n")
+    text = text.replace("v0: [0.03, 0.06]", "").replace("Dr: 1.0, ", "Dr: 1.0, v0: 0.03, ")
+    cfg = config_mod.parse_config(text.format(out=tmp_path))
+    for k, spec in enumerate(cfg.runs()):
+        rd = tmp_path / "runs" / spec.run_id
+        rd.mkdir(parents=True)
+        write_trajectory(rd / "trajectory.h5", {**dict(spec.params), "run_id": spec.run_id}, seed=k)
+        (rd / "status.json").write_text(json.dumps({"status": "done", "reason": ""}))
+    analyze_sweep(cfg, workers=1)
+    ds = xr.open_dataset(aggregate_sweep(cfg))
+    assert ds["phase"].dims == ("eta", "v0", "N", "initial", "replicate")
+    assert [str(v) for v in ds["initial"].values] == ["disordered", "lattice"]
+    assert ds["initial"].attrs == {"long_name": "initial state of the run"}
+    assert ds["phase"].shape == (1, 1, 1, 2, 1)
+
+
 def _short_sweep(out, replicates=1, Dr=1.0):
     cfg = config_mod.parse_config(YAML.replace("replicates: 1", f"replicates: {replicates}")
                                   .replace("Dr: 1.0", f"Dr: {Dr}").format(out=out))

@@ -86,7 +86,7 @@ def test_h5md_layout_read_back_with_plain_h5py(done_sweep):
         proj = f["observables/projections/value"][()]
         assert proj.shape == (T,) and np.all(np.diff(proj) >= 0)
         par = f["parameters"].attrs
-        for key in ("N", "eta", "v0", "Dr", "density", "dt", "contour_points", "modes", "quadrature",
+        for key in ("N", "eta", "v0", "Dr", "density", "dt", "contour_points", "modes", "quadrature", "initial",
                     "R0", "mu_theta", "mu_shape", "steps", "sample_every", "transient", "seed", "run_id",
                     "fcsweep_version", "created", "config_json"):
             assert key in par, key

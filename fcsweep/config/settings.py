@@ -15,8 +15,7 @@ import numpy as np
 
 from fcsweep.config.errors import ConfigError
 from fcsweep.config.params import _canon_value, _check_param
-from fcsweep.model.integrators import DEFAULT_INTEGRATOR
-from fcsweep.model.parameters import DEFAULTS
+from fcsweep.model.parameters import DEFAULTS, ID_OMITS_DEFAULT
 
 #: Model parameters and their defaults (:data:`fcsweep.model.parameters.PARAMETERS`); ``None`` means "must be given".
 MODEL_DEFAULTS: dict[str, Any] = DEFAULTS
@@ -138,7 +137,7 @@ class RunSpec:
         return int(self.params["seed"])
 
     def model_params(self) -> dict[str, Any]:
-        """Keyword arguments of :meth:`Simulation.from_lattice` (without ``N``)."""
+        """Keyword arguments of :meth:`Simulation.create` (without ``N``)."""
         return {k: v for k, v in self.params.items() if k != "N"}
 
     def label(self) -> str:
@@ -258,10 +257,11 @@ def run_id_of(params: Mapping[str, Any], replicate: int) -> str:
     """Stable 12-hex-digit id of a run from its model parameters and replicate.
 
     ``seed`` (if present in ``params``) is ignored: the seed derives from the id, and so
-    is ``integrator`` when it is the default (ids from before the key existed hold).
+    is every parameter declared ``id_omits_default`` (``integrator``, ``initial``) when it
+    has its default value (ids from before the key existed hold).
     """
     canon = {k: _canon_value(k, v) for k, v in params.items()
-             if k != "seed" and not (k == "integrator" and v == DEFAULT_INTEGRATOR)}
+             if k != "seed" and not (k in ID_OMITS_DEFAULT and v == ID_OMITS_DEFAULT[k])}
     blob = json.dumps({"params": canon, "replicate": int(replicate)}, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(blob.encode()).hexdigest()[:12]
 

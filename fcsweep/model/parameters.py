@@ -22,7 +22,11 @@ from typing import Any
 from fcsweep.model.integrators import DEFAULT_INTEGRATOR, INTEGRATORS
 from fcsweep.model.rates import QUADRATURES
 
-__all__ = ["Parameter", "PARAMETERS", "DEFAULTS", "INT_PARAMS", "STR_PARAMS", "RANGES", "markdown_table"]
+__all__ = ["Parameter", "PARAMETERS", "DEFAULTS", "INT_PARAMS", "STR_PARAMS", "RANGES", "ID_OMITS_DEFAULT",
+           "INITIAL_STATES", "markdown_table"]
+
+#: The initial states a run may start from (the ``initial`` parameter, docs/model.md).
+INITIAL_STATES = ("lattice", "disordered")
 
 #: The physical bounds a parameter may have, checked before its range: name -> (test,
 #: how the config error reads it, how SimParams' error reads it).
@@ -61,6 +65,9 @@ class Parameter:
     meaning, allowed, default_doc : str
         The cells of configs/README.md's parameter table (``default_doc``: when the
         default needs words).
+    id_omits_default : bool
+        Left out of the run id (:func:`fcsweep.config.run_id_of`) when it has its
+        default value: a parameter added after sweeps were run keeps their ids and seeds.
     """
 
     name: str
@@ -76,6 +83,7 @@ class Parameter:
     choices: tuple[str, ...] = ()
     unit: str = "1"
     default_doc: str = ""
+    id_omits_default: bool = False
 
     @property
     def units(self) -> str:
@@ -139,7 +147,13 @@ PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
               "relaxation implicit: contacts do not chatter; `fcsweep.model.integrators`), `contact-jacobi` (the "
               "same with each contact's approach rate from the other forces, two Jacobi sweeps per step; needs "
               "`quadrature: arc` and `modes` ≥ 2, refused otherwise). Part of the run id only when not `euler`, "
-              "so ids of existing sweeps do not change", choices=tuple(INTEGRATORS), unit=""),
+              "so ids of existing sweeps do not change", choices=tuple(INTEGRATORS), unit="", id_omits_default=True),
+    Parameter("initial", str, "lattice", "initial state of the run",
+              "initial state: lattice (hexagonal, default) or disordered (isotropic, relaxed)", "initial state",
+              "`lattice` (the n × n hexagonal lattice, circular cells), `disordered` (random centres in the same "
+              "box, relaxed at v0 = 0: an isotropic start, docs/model.md). Sweep both to bracket a label from "
+              "both sides. Part of the run id only when not `lattice`, so ids of existing sweeps do not change",
+              choices=INITIAL_STATES, unit="", id_omits_default=True),
 )}
 
 #: name -> default (``None``: must be given).
@@ -148,6 +162,8 @@ DEFAULTS: dict[str, Any] = {name: p.default for name, p in PARAMETERS.items()}
 INT_PARAMS = tuple(name for name, p in PARAMETERS.items() if p.type is int)
 #: String parameters and their allowed values.
 STR_PARAMS = {name: p.choices for name, p in PARAMETERS.items() if p.type is str}
+#: Parameters left out of the run id at their default: name -> default.
+ID_OMITS_DEFAULT: dict[str, Any] = {name: p.default for name, p in PARAMETERS.items() if p.id_omits_default}
 #: Bounds of the numeric parameters.
 RANGES: dict[str, tuple[float, float]] = {name: p.range for name, p in PARAMETERS.items() if p.range}
 

@@ -299,7 +299,7 @@ def _compute(cfg, spec, rd: RunDirectory, prev: dict, progress, force: bool, t0:
     fresh = sim is None
     if fresh:
         rd.start_over()
-        sim = Simulation.from_lattice(int(spec.params["N"]), **spec.model_params())
+        sim = Simulation.create(int(spec.params["N"]), **spec.model_params())
         fields = new_trajectory(cfg, spec, rd, sim, fp_any)
     else:
         fields = fields_for(cfg, sim)
