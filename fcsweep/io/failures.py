@@ -8,7 +8,8 @@ always say ``errno``: h5py words a full disk as "Can't close file (file write fa
 errno = 28 ...)", netCDF4 only as "NetCDF: HDF error".  :func:`classify` reads the errno
 where there is one (attribute or text) and otherwise asks the file system: with less than
 :data:`LOW_SPACE` bytes free beside the temporary file when the write failed, the cause was
-the lack of space.
+the lack of space.  So it is for "permission denied", which netCDF4 also says when it cannot
+create a file on a full disk.
 
 Test hooks (environment variables, inherited by ``-j`` worker processes):
 
@@ -88,7 +89,8 @@ def classify(exc: BaseException, path, free_at=None) -> WriteFailure | None:
     if not isinstance(exc, Exception):
         return None
     code = _errno_of(exc)
-    if code is None and free_at is not None:
+    # netCDF4 says PermissionError (EACCES) when it cannot create a file on a full disk
+    if code in (None, _errno.EACCES, _errno.EPERM) and free_at is not None:
         try:
             if shutil.disk_usage(Path(free_at).parent).free < LOW_SPACE:
                 code = _errno.ENOSPC
