@@ -144,7 +144,7 @@ def test_read_only_sweep_is_refused_before_any_work(sweep, command):
     r = _run([command, str(cfg), "--force"] if command == "analyze" else [command, str(cfg)],
              FCSWEEP_TEST_WRITE_ERROR="*:EROFS")
     assert r.exit_code == 2
-    assert _lines(r, f"cannot write {out}: read-only file system; the sweep directory is not writable")
+    assert _lines(r, f"cannot write {out}: read-only file system; this command writes into the sweep directory")
     assert rs.results(out) == before and not rs.temporaries(out)
 
 

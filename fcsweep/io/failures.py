@@ -190,7 +190,7 @@ def advice(exc: WriteFailure, where: str = "") -> str:
     elif where:
         todo = f"give {where} a writable directory"
     else:
-        todo = "the sweep directory is not writable for you: run this where it is (or on a copy)"
+        todo = "this command writes into the sweep directory: run it on a writable copy, or where it can be written"
     return f"{what}; {todo}"
 
 
