@@ -471,7 +471,7 @@ def aggregate(config, output):
     import xarray as xr
 
     from fcsweep.analysis.aggregate import aggregate_sweep, point_summaries, replicate_error_check, unanalysed_runs
-    from fcsweep.io.failures import probe_writable, results_command
+    from fcsweep.io.failures import probe_writable, results_command, signals_held
 
     cfg = _load(config, output)
     out = _announce(cfg)
@@ -482,7 +482,7 @@ def aggregate(config, output):
         probe_writable(out)
         path = aggregate_sweep(cfg, say=_say)
     click.echo(str(path))
-    with xr.open_dataset(path) as ds:
+    with signals_held(), xr.open_dataset(path) as ds:  # xarray's file locks: no signal inside
         missing = unanalysed_runs(ds)
         check = replicate_error_check(ds)
         for line in point_summaries(ds):

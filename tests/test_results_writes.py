@@ -194,3 +194,29 @@ def test_plot_on_a_full_disk_says_so(sweep, tmp_path):
     r = _run(["plot", str(cfg), "--outdir", str(figs)], FCSWEEP_TEST_WRITE_ERROR="*.png:ENOSPC")
     assert r.exit_code == 2 and _lines(r, "no space left on device; free space there or give --outdir")
     assert not rs.temporaries(tmp_path)
+
+
+def test_signals_during_a_write_are_held_and_handled_after_it(tmp_path):
+    """A SIGTERM inside a write lands after the rename (never between a library's lock
+    acquire and release): raising handlers raise then, flag handlers get their flag."""
+    import signal
+
+    target = tmp_path / "a.nc"
+    target.write_text("old")
+    seen = []
+
+    def writer(tmp):
+        tmp.write_text("half")
+        os.kill(os.getpid(), signal.SIGTERM)
+        assert not seen  # still held
+        tmp.write_text("complete")
+
+    old = signal.signal(signal.SIGTERM, lambda s, f: seen.append(s))
+    try:
+        atomic_write(target, writer)
+    finally:
+        signal.signal(signal.SIGTERM, old)
+    assert seen == [signal.SIGTERM] and target.read_text() == "complete"
+    with failures.sigterm_raises(), pytest.raises(failures.Terminated):
+        atomic_write(target, writer)
+    assert target.read_text() == "complete" and os.listdir(tmp_path) == ["a.nc"]

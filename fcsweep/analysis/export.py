@@ -401,7 +401,7 @@ def export_gsd(traj_path, out, *, frames=None, unwrapped: bool = False, polygons
                 f.append(fr)
                 bar.update(1)
 
-    return atomic_write(out, write, fsync=True)
+    return atomic_write(out, write, fsync=True, interruptible=True)
 
 
 # ------------------------------------------------------------------ VTK XML PolyData

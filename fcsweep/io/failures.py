@@ -30,12 +30,13 @@ import os
 import re
 import shutil
 import signal
+import threading
 from contextlib import contextmanager
 from pathlib import Path
 
 __all__ = ["WriteFailure", "classify", "kill_point", "injected_error", "remove_stale", "advice",
            "ENVIRONMENT_ERRNOS", "LOW_SPACE", "written_count", "count_write", "Terminated", "sigterm_raises",
-           "probe_writable", "results_command"]
+           "probe_writable", "results_command", "signals_held"]
 
 #: errno values that are failures of the environment, with the word shown for each.
 ENVIRONMENT_ERRNOS = {
@@ -250,3 +251,30 @@ def results_command(say, where: str = ""):
             name, code = ("SIGINT", 130) if isinstance(exc, KeyboardInterrupt) else ("SIGTERM", 143)
             say(f"stopped by {name}; every result written before is intact, no temporary file is left")
             raise SystemExit(code) from None
+
+
+@contextmanager
+def signals_held():
+    """Within the block SIGINT and SIGTERM are held, and given to the handlers they had
+    (raising, flag-setting or default) when it ends.
+
+    An exception raised by a signal handler can land between a lock's acquire and the
+    ``try`` that releases it (xarray's and netCDF4's file locks, for one): the cleanup that
+    follows then waits for that lock forever.  Short writes hold the signals instead
+    (:func:`fcsweep.io.sweepdir.atomic_write`); outside the main thread nothing is held.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    got: list[int] = []
+    old = {sig: signal.signal(sig, lambda signum, frame: got.append(signum)) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for sig, handler in old.items():
+            signal.signal(sig, handler)
+        for sig in dict.fromkeys(got):
+            if callable(old[sig]):
+                old[sig](sig, None)
+            elif old[sig] == signal.SIG_DFL:
+                signal.raise_signal(sig)

@@ -33,6 +33,7 @@ the next ``simulate`` recomputes it, as for any damaged trajectory.
 
 from __future__ import annotations
 
+import contextlib
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -58,7 +59,8 @@ def run_path(output, run_id: str) -> Path:
 
 
 def atomic_write(path, writer: Callable[[Path], None], *, fsync: bool = False,
-                 before_replace: Callable[[Path], None] | None = None, suffix: str = "") -> Path:
+                 before_replace: Callable[[Path], None] | None = None, suffix: str = "",
+                 interruptible: bool = False) -> Path:
     """Write ``path`` through a temporary file beside it and :func:`os.replace`: the one
     write path of every file a reader may open while it is written (status, checkpoints,
     trajectories, analyses, datasets, figures, movies, exports, the cost cache).
@@ -90,6 +92,10 @@ def atomic_write(path, writer: Callable[[Path], None], *, fsync: bool = False,
     suffix : str
         Extension of the temporary name, for libraries that pick the format by it
         (``".mp4"`` for ffmpeg).
+    interruptible : bool
+        Let SIGINT / SIGTERM interrupt ``writer`` (long writes: exports, movies); by
+        default they are held until the file is written and renamed
+        (:func:`fcsweep.io.failures.signals_held`), then handled.
 
     Returns
     -------
@@ -103,6 +109,17 @@ def atomic_write(path, writer: Callable[[Path], None], *, fsync: bool = False,
     """
     path = Path(path)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp{suffix}")
+    held = contextlib.nullcontext() if interruptible else failures.signals_held()
+    with held:
+        _write_and_rename(path, tmp, writer, fsync, before_replace)
+    failures.count_write()
+    failures.kill_point(path, "after-rename")
+    if fsync:
+        fsync_dir(path.parent)
+    return path
+
+
+def _write_and_rename(path: Path, tmp: Path, writer, fsync: bool, before_replace) -> None:
     try:
         try:
             writer(tmp)
@@ -129,11 +146,6 @@ def atomic_write(path, writer: Callable[[Path], None], *, fsync: bool = False,
         except OSError:
             pass
         raise
-    failures.count_write()
-    failures.kill_point(path, "after-rename")
-    if fsync:
-        fsync_dir(path.parent)
-    return path
 
 
 def fsync_dir(path) -> None:

@@ -266,4 +266,4 @@ def movie_run(traj_path, out=None, *, fps=10, every=1, dpi=120, progress=True) -
                 art.draw(pos, theta, a, b, q, defect, _frame_title(traj, k, defect))
                 writer.append_data(art.rgb())
 
-    return atomic_write(out, write, fsync=True, suffix=out.suffix)
+    return atomic_write(out, write, fsync=True, suffix=out.suffix, interruptible=True)
