@@ -691,24 +691,11 @@ def _runs(cfg: SweepConfig) -> list:
 
 
 def main() -> None:
-    """Console entry point ``fcsweep``: SIGINT / SIGTERM before a command set its own
-    handling (while loading, say) exit 130 / 143 with one line, as they do after."""
-    from fcsweep.io.failures import Terminated, sigterm_raises
+    """Console entry point ``fcsweep`` (:func:`fcsweep.io.failures.run_main`: SIGINT /
+    SIGTERM before a command set its own handling exit 130 / 143 with one line)."""
+    from fcsweep.io.failures import run_main
 
-    try:
-        with sigterm_raises():
-            code = cli.main(prog_name="fcsweep", standalone_mode=False)
-    except click.exceptions.Abort as exc:
-        stopped = isinstance(exc.__cause__, KeyboardInterrupt)
-        _say("stopped by SIGINT" if stopped else "aborted")
-        sys.exit(130 if stopped else 1)
-    except Terminated:
-        _say("stopped by SIGTERM")
-        sys.exit(143)
-    except click.ClickException as exc:
-        exc.show()
-        sys.exit(exc.exit_code)
-    sys.exit(code if isinstance(code, int) else 0)
+    run_main(cli, "fcsweep", _say)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -103,7 +103,10 @@ def test_kill_at_every_named_point(sweep, cmd, name, point):
 @pytest.mark.slow
 @pytest.mark.parametrize("cmd", [ANALYZE, AGGREGATE], ids=["analyze", "aggregate"])
 def test_random_kills(sweep, cmd):
-    """10 signals at random times during each command (SIGKILL, SIGTERM, SIGINT)."""
+    """10 signals at random times during each command (SIGKILL, SIGTERM, SIGINT), after it
+    started (printed the output directory: before that Python is still importing, nothing
+    is written, and Python's own handling applies).  Killed by SIGINT / SIGTERM (-2 / -15
+    here) is what a shell reports as 130 / 143, as for the exit codes the command sets."""
     cfg, out, _ = sweep
     rng = random.Random(37)
     t0 = time.monotonic()
@@ -113,12 +116,14 @@ def test_random_kills(sweep, cmd):
         sig = rng.choice([signal.SIGKILL, signal.SIGTERM, signal.SIGINT])
         p = subprocess.Popen([sys.executable, "-m", "fcsweep.cli", *cmd(cfg)], env=_env(),
                              stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-        time.sleep(rng.uniform(0.3 * span, span))
+        first = p.stderr.readline()
+        assert "output directory" in first, first
+        time.sleep(rng.uniform(0.0, 0.8 * span))
         p.send_signal(sig)
-        err = p.communicate(timeout=300)[1]
-        assert p.returncode in (0, -signal.SIGKILL, 130, 143), (sig, p.returncode, err)
+        err = first + p.communicate(timeout=300)[1]
+        assert p.returncode in (0, -signal.SIGKILL, 130, 143, -signal.SIGINT, -signal.SIGTERM), (sig, p.returncode, err)
         assert "Traceback" not in err, err
-        if p.returncode in (130, 143):
+        if p.returncode != -signal.SIGKILL:
             assert not rs.temporaries(out), err
         _readable(out)
     _again(cmd, cfg, out)

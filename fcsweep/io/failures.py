@@ -36,7 +36,7 @@ from pathlib import Path
 
 __all__ = ["WriteFailure", "classify", "kill_point", "injected_error", "remove_stale", "advice",
            "ENVIRONMENT_ERRNOS", "LOW_SPACE", "written_count", "count_write", "Terminated", "sigterm_raises",
-           "probe_writable", "results_command", "signals_held"]
+           "probe_writable", "results_command", "signals_held", "run_main"]
 
 #: errno values that are failures of the environment, with the word shown for each.
 ENVIRONMENT_ERRNOS = {
@@ -278,3 +278,25 @@ def signals_held():
                 old[sig](sig, None)
             elif old[sig] == signal.SIG_DFL:
                 signal.raise_signal(sig)
+
+
+def run_main(group, prog_name: str, say) -> None:
+    """Run the click ``group`` as a program: SIGINT / SIGTERM that arrive before a command
+    set its own handling (while it loads) exit 130 / 143 with one line, as they do after
+    (click alone would print "Aborted!" and exit 1, or die by the signal)."""
+    import click
+
+    try:
+        with sigterm_raises():
+            code = group.main(prog_name=prog_name, standalone_mode=False)
+    except click.exceptions.Abort as exc:
+        stopped = isinstance(exc.__cause__, KeyboardInterrupt)
+        say("stopped by SIGINT" if stopped else "aborted")
+        raise SystemExit(130 if stopped else 1) from None
+    except Terminated:
+        say("stopped by SIGTERM")
+        raise SystemExit(143) from None
+    except click.ClickException as exc:
+        exc.show()
+        raise SystemExit(exc.exit_code) from None
+    raise SystemExit(code if isinstance(code, int) else 0)
