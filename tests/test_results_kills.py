@@ -174,7 +174,6 @@ def _fill(mnt: Path) -> Path:
     return filler
 
 
-@pytest.mark.slow
 def test_full_file_system(analysed, tiny_fs):
     cfg = rs.copy(analysed, tiny_fs)
     out = tiny_fs / "sweep"
