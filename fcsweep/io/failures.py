@@ -11,6 +11,13 @@ where there is one (attribute or text) and otherwise asks the file system: with 
 the lack of space.  So it is for "permission denied", which netCDF4 also says when it cannot
 create a file on a full disk.
 
+Signals: :func:`results_command` wraps the work of ``analyze``, ``aggregate``, ``plot``,
+``movie`` and ``export`` (SIGTERM raises :class:`Terminated` like SIGINT raises
+``KeyboardInterrupt``; one line and exit 130 / 143); :func:`signals_held` keeps both out of
+short writes, which finish and are renamed first; :func:`run_main` gives the same exit
+codes to a signal that comes while a command loads.  SIGKILL leaves at most one temporary
+file per writer, which :func:`remove_stale` removes on the next command.
+
 Test hooks (environment variables, inherited by ``-j`` worker processes):
 
 ``FCSWEEP_TEST_KILL_AT=<file>:<point>[:K]``
