@@ -37,6 +37,7 @@ import datetime as _dt
 import json
 import multiprocessing
 import os
+import signal
 import warnings
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
@@ -496,9 +497,9 @@ def _analyze_task(traj_path, transient, force, settings):
         res = analyze_run(traj_path, transient=transient, force=force, settings=settings)
     except WriteFailure as exc:  # the environment: the previous analysis.h5 stays
         return UNWRITTEN, advice(exc)
-    except (KeyboardInterrupt, Terminated) as exc:
+    except (KeyboardInterrupt, Terminated, SystemExit) as exc:
         if multiprocessing.parent_process() is not None:  # a -j worker: its files are clean, stop now
-            os._exit(143 if isinstance(exc, Terminated) else 130)
+            os._exit(130 if isinstance(exc, KeyboardInterrupt) else 143)
         raise
     except (TrajectoryError, AnalysisError) as exc:
         _record_failure(traj_path, str(exc))
@@ -511,10 +512,18 @@ def _analyze_task(traj_path, transient, force, settings):
 
 
 def _init_worker(threads: int) -> None:
-    """Pool processes: freud uses ``threads`` threads, so processes x threads <= cores."""
+    """Pool processes: freud uses ``threads`` threads, so processes x threads <= cores.
+    Ctrl-C reaches the parent, which stops the workers with SIGTERM: a worker exits
+    quietly (after the rename of a write under way, see ``atomic_write``)."""
     import freud
 
     freud.parallel.set_num_threads(threads)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, _worker_exit)
+
+
+def _worker_exit(signum, frame):
+    raise SystemExit(143)
 
 
 def analyze_sweep(config, *, workers=1, force=False, settings=None, say=None) -> list:
