@@ -9,9 +9,11 @@ the output directory it resolved.
 Exit codes: 0 success; 1 some run failed or was left unfinished (the others completed),
 or a results command (status, analyze, aggregate, plot, movie, export) found nothing to work on
 in the output directory (nothing was written), or aggregate found finished runs without
-a usable analysis; 2 invalid config or usage, or not enough disk space (nothing was
-written); 128 + signal number when stopped by a signal (SIGINT 130, SIGTERM 143,
-SIGUSR1 138) after every running run wrote a checkpoint.
+a usable analysis, or a results file could not be written after others were; 2 invalid
+config or usage, or not enough disk space, or a read-only sweep (nothing was written);
+128 + signal number when stopped by a signal (SIGINT 130, SIGTERM 143, SIGUSR1 138) after
+every running run wrote a checkpoint, or every earlier result of a results command was
+left intact (:func:`fcsweep.io.failures.results_command`).
 """
 
 from __future__ import annotations
@@ -419,7 +421,8 @@ def compile_cmd():
 @click.option("--force", is_flag=True, help="Recompute existing analysis files.")
 def analyze(config, output, workers, force):
     """Analyse every finished run (writes analysis.h5 beside each trajectory)."""
-    from fcsweep.analysis.pipeline import analyze_sweep
+    from fcsweep.analysis.pipeline import UNWRITTEN, analyze_sweep
+    from fcsweep.io.failures import probe_writable, results_command
     from fcsweep.sweep.status import summary_line
 
     cfg = _load(config, output)
@@ -432,12 +435,18 @@ def analyze(config, output, workers, force):
     if old:
         _say(f"{len(old)} done run(s) were computed with other run settings than this config "
              f"({old[0]['outdated']}); they are analysed as they are")
-    results = analyze_sweep(cfg, workers=workers, force=force)
-    failed = 0
+    with results_command(_say):
+        probe_writable(out)
+        results = analyze_sweep(cfg, workers=workers, force=force, say=_say)
+    n = {w: sum(st == w for _, st, _ in results) for w in ("done", "failed", UNWRITTEN)}
     for run_id, st, msg in results:
         click.echo(f"{run_id}  {st}  {msg}")
-        failed += st == "failed"
-    if failed:
+    if n[UNWRITTEN]:
+        why = next(msg for _, st, msg in results if st == UNWRITTEN)
+        _say(f"{n[UNWRITTEN]} analysis file(s) could not be written (previous ones kept), {n['done']} written, "
+             f"{n['failed']} failed; first: {why}")
+        sys.exit(1 if n["done"] else 2)
+    if n["failed"]:
         sys.exit(1)
 
 
@@ -462,15 +471,18 @@ def aggregate(config, output):
     import xarray as xr
 
     from fcsweep.analysis.aggregate import aggregate_sweep, point_summaries, replicate_error_check, unanalysed_runs
+    from fcsweep.io.failures import probe_writable, results_command, signals_held
 
     cfg = _load(config, output)
     out = _announce(cfg)
     n, why = _analysed(cfg)
     if not n:
         _nothing(f"nothing to aggregate in {out}: {why} ({_wrong_dir_hint(config, output)})")
-    path = aggregate_sweep(cfg)
+    with results_command(_say):
+        probe_writable(out)
+        path = aggregate_sweep(cfg, say=_say)
     click.echo(str(path))
-    with xr.open_dataset(path) as ds:
+    with signals_held(), xr.open_dataset(path) as ds:  # xarray's file locks: no signal inside
         missing = unanalysed_runs(ds)
         check = replicate_error_check(ds)
         for line in point_summaries(ds):
@@ -495,6 +507,7 @@ def plot(config, output, run, frame, outdir):
     _headless()
     from fcsweep.analysis.figures import NothingToPlot, plot_sweep
     from fcsweep.analysis.pipeline import DATASET_FILE
+    from fcsweep.io.failures import results_command
 
     cfg = _load(config, output)
     out = _announce(cfg)
@@ -505,7 +518,8 @@ def plot(config, output, run, frame, outdir):
         if not n:
             _nothing(f"nothing to plot in {out}: no phase_diagram.nc, {why} ({_wrong_dir_hint(config, output)})")
     try:
-        paths = plot_sweep(cfg, run=run, frame=frame, outdir=Path(outdir) if outdir else None)
+        with results_command(_say, "--outdir"):
+            paths = plot_sweep(cfg, run=run, frame=frame, outdir=Path(outdir) if outdir else None)
     except NothingToPlot as exc:
         _nothing(str(exc))
     for p in paths:
@@ -555,6 +569,7 @@ def movie(run, config, output, fps, every, dpi, out_file):
     """
     _headless()
     from fcsweep.analysis.figures import movie_run
+    from fcsweep.io.failures import results_command
 
     if run.endswith(".h5") and Path(run).is_file():
         traj = Path(run)
@@ -563,7 +578,8 @@ def movie(run, config, output, fps, every, dpi, out_file):
         out = _announce(cfg)
         traj = _trajectory_or_exit(cfg, run, out, config, output)
     try:
-        path = movie_run(traj, out_file, fps=fps, every=every, dpi=dpi)
+        with results_command(_say, "--out"):
+            path = movie_run(traj, out_file, fps=fps, every=every, dpi=dpi)
     except ImportError as exc:
         _say(str(exc))
         sys.exit(2)
@@ -596,6 +612,7 @@ def export(run, config, output, fmt, frames, out_path, unwrapped, polygons, imag
     """
     from fcsweep.analysis.export import export_gsd, export_vtk
     from fcsweep.analysis.trajectory import TrajectoryError
+    from fcsweep.io.failures import results_command
 
     if run.endswith(".h5") and Path(run).is_file():
         traj = Path(run)
@@ -605,12 +622,13 @@ def export(run, config, output, fmt, frames, out_path, unwrapped, polygons, imag
         traj = _trajectory_or_exit(cfg, run, out, config, output)
     run_id = traj.parent.name if traj.name == "trajectory.h5" else traj.stem
     try:
-        if fmt == "gsd":
-            path = export_gsd(traj, out_path or f"{run_id}.gsd", frames=frames, unwrapped=unwrapped,
-                              polygons=polygons, defects=not no_defects)
-        else:
-            path = export_vtk(traj, out_path or f"{run_id}_vtk", frames=frames, unwrapped=unwrapped,
-                              images=images, binary=not as_ascii, defects=not no_defects)
+        with results_command(_say, "--out"):
+            if fmt == "gsd":
+                path = export_gsd(traj, out_path or f"{run_id}.gsd", frames=frames, unwrapped=unwrapped,
+                                  polygons=polygons, defects=not no_defects)
+            else:
+                path = export_vtk(traj, out_path or f"{run_id}_vtk", frames=frames, unwrapped=unwrapped,
+                                  images=images, binary=not as_ascii, defects=not no_defects)
     except (ImportError, ValueError) as exc:
         _say(str(exc))
         sys.exit(2)
@@ -673,8 +691,11 @@ def _runs(cfg: SweepConfig) -> list:
 
 
 def main() -> None:
-    """Console entry point ``fcsweep``."""
-    cli(prog_name="fcsweep")
+    """Console entry point ``fcsweep`` (:func:`fcsweep.io.failures.run_main`: SIGINT /
+    SIGTERM before a command set its own handling exit 130 / 143 with one line)."""
+    from fcsweep.io.failures import run_main
+
+    run_main(cli, "fcsweep", _say)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -35,7 +35,6 @@ from __future__ import annotations
 
 import datetime as _dt
 import json
-import os
 from pathlib import Path
 
 import numpy as np
@@ -50,7 +49,8 @@ from fcsweep.analysis.percolation import fisher_observables
 from fcsweep.analysis.stats import combine
 from fcsweep.io.observables import OBSERVABLES, REPLICATE_REDUCED, RUN_SCALARS, TEXTS
 from fcsweep.io.status import read_status
-from fcsweep.io.sweepdir import run_path, run_state
+from fcsweep.io.failures import remove_stale
+from fcsweep.io.sweepdir import atomic_write, run_path, run_state
 from fcsweep.model.parameters import PARAMETERS
 from fcsweep.analysis.pipeline import (ANALYSIS_ERROR_FILE, ANALYSIS_FILE, CURVES, DATASET_FILE, config_settings,
                                       read_analysis)
@@ -440,10 +440,11 @@ def _collapse_per_slice(ds: xr.Dataset, stat: str, names: tuple, n_bootstrap: in
 
 
 def write_dataset(ds: xr.Dataset, path) -> Path:
-    """Write ``ds`` as NetCDF4 atomically (temporary file, then rename)."""
+    """Write ``ds`` as NetCDF4 through :func:`fcsweep.io.sweepdir.atomic_write`: the previous
+    dataset stays until the new one is complete (a full disk raises
+    :class:`fcsweep.io.failures.WriteFailure` and leaves it byte for byte)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     enc = {}
     for v in ds.variables:
         if ds[v].dtype.kind == "f":
@@ -451,9 +452,8 @@ def write_dataset(ds: xr.Dataset, path) -> Path:
             enc[v] = {"_FillValue": np.nan if v not in ds.coords and not bounds else None}
         elif v in STRING_VARS:
             enc[v] = {"dtype": "S1"}
-    ds.to_netcdf(tmp, format="NETCDF4", engine="netcdf4", encoding=enc)
-    os.replace(tmp, path)
-    return path
+    return atomic_write(path, lambda tmp: ds.to_netcdf(tmp, format="NETCDF4", engine="netcdf4", encoding=enc),
+                        fsync=True)
 
 
 def replicate_error_check(ds: xr.Dataset) -> dict:
@@ -503,6 +503,9 @@ def unanalysed_runs(ds: xr.Dataset) -> list[tuple[str, str]]:
     return [(str(r), STATUS_FLAGS[int(s)]) for r, s in zip(ids, st) if int(s) in (1, 6)]
 
 
-def aggregate_sweep(config) -> Path:
-    """Build the dataset of a sweep and write ``<output>/phase_diagram.nc``."""
+def aggregate_sweep(config, say=None) -> Path:
+    """Build the dataset of a sweep and write ``<output>/phase_diagram.nc`` (temporary files
+    of killed aggregations are removed first, each told to ``say``)."""
+    for tmp in remove_stale(config.output, (DATASET_FILE,)):
+        (say or (lambda m: None))(f"removed {tmp}, left by a killed aggregate")
     return write_dataset(build_dataset(config), Path(config.output) / DATASET_FILE)

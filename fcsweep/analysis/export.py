@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import base64
 import json
-import os
 from dataclasses import dataclass
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
@@ -44,6 +43,8 @@ from scipy.sparse.csgraph import connected_components
 
 from fcsweep.analysis import shapes, voronoi
 from fcsweep.analysis.trajectory import Trajectory, TrajectoryError, open_trajectory
+from fcsweep.io.failures import remove_stale
+from fcsweep.io.sweepdir import atomic_write
 from fcsweep.model.shape import radius
 
 #: Export formats and the suffix of their output.
@@ -315,8 +316,9 @@ def export_gsd(traj_path, out, *, frames=None, unwrapped: bool = False, polygons
     traj_path : path-like
         A ``trajectory.h5`` (or a running run's ``.partial``, or a run directory).
     out : path-like
-        The ``.gsd`` file to write (replaced if it exists; written to a temporary name
-        first, so a failed export leaves no partial file behind).
+        The ``.gsd`` file to write (replaced if it exists, only once the new one is
+        complete: :func:`fcsweep.io.sweepdir.atomic_write`, so a failed or interrupted
+        export leaves the previous file and no partial one).
     frames : see :func:`parse_frames`
         Frames to export (default all).
     unwrapped : bool
@@ -354,13 +356,14 @@ def export_gsd(traj_path, out, *, frames=None, unwrapped: bool = False, polygons
     idx = parse_frames(frames, traj.n_frames)
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(f".{out.name}.partial")
     box = np.asarray(traj.box, dtype=float)
     half = box / 2.0
     R0 = float(traj.params.get("R0", 1.0))
     K = _contour_points(traj)
     N = traj.n_cells
-    try:
+    remove_stale(out.parent, (out.name,))
+
+    def write(tmp: Path) -> None:
         with gsd.hoomd.open(str(tmp), "w") as f, _progress(idx.size, "export gsd", progress) as bar:
             for n, cf in enumerate(iter_frames(traj, idx, defects=defects)):
                 fr = gsd.hoomd.Frame()
@@ -397,11 +400,8 @@ def export_gsd(traj_path, out, *, frames=None, unwrapped: bool = False, polygons
                     fr.log.update(_gsd_parameters(traj.params))
                 f.append(fr)
                 bar.update(1)
-        os.replace(tmp, out)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
-    return out
+
+    return atomic_write(out, write, fsync=True, interruptible=True)
 
 
 # ------------------------------------------------------------------ VTK XML PolyData
@@ -499,13 +499,7 @@ def polydata_xml(contours: np.ndarray, cell_data: dict, field_data: dict, *, bin
 
 
 def _write_text(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.partial")
-    try:
-        tmp.write_text(text, encoding="ascii")
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+    atomic_write(path, lambda tmp: tmp.write_text(text, encoding="ascii"))
 
 
 def export_vtk(traj_path, out_dir, *, frames=None, unwrapped: bool = False, images: bool = False,
@@ -519,7 +513,10 @@ def export_vtk(traj_path, out_dir, *, frames=None, unwrapped: bool = False, imag
         A ``trajectory.h5`` (or a running run's ``.partial``, or a run directory).
     out_dir : path-like
         Directory for ``<stem>_<frame>.vtp`` (frame = trajectory frame index, 6 digits) and
-        ``<stem>.pvd``; created if missing.  The ``.pvd`` is written last.
+        ``<stem>.pvd``; created if missing.  Each file is written whole or not at all
+        (:func:`fcsweep.io.sweepdir.atomic_write`) and the ``.pvd`` last: a failed or
+        interrupted export leaves the complete ``.vtp`` files written so far beside the
+        previous ``.pvd`` (if any), never a truncated file; export again to finish.
     frames : see :func:`parse_frames`
         Frames to export (default all).
     unwrapped : bool
@@ -546,6 +543,7 @@ def export_vtk(traj_path, out_dir, *, frames=None, unwrapped: bool = False, imag
     idx = parse_frames(frames, traj.n_frames)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
+    remove_stale(out_dir, (f"{stem}*",))
     box = np.asarray(traj.box, dtype=float)
     R0 = float(traj.params.get("R0", 1.0))
     K = _contour_points(traj)

@@ -38,7 +38,9 @@ from __future__ import annotations
 
 import datetime as _dt
 import json
+import multiprocessing
 import os
+import signal
 import warnings
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
@@ -56,7 +58,8 @@ from fcsweep.analysis.trajectory import TrajectoryError, open_trajectory
 from fcsweep.io import schema
 from fcsweep.io.machine import worker_layout
 from fcsweep.io.observables import CURVES, LABELS, RUN_SCALARS
-from fcsweep.io.sweepdir import run_path, run_state
+from fcsweep.io.failures import Terminated, WriteFailure, advice, remove_stale
+from fcsweep.io.sweepdir import atomic_write, run_path, run_state
 
 #: File names of a sweep directory (declared once, in :mod:`fcsweep.io.schema`).
 ANALYSIS_FILE = schema.ANALYSIS
@@ -65,6 +68,8 @@ STATUS_FILE = schema.STATUS
 DATASET_FILE = schema.DATASET
 #: Written beside the trajectory when its analysis fails (the reason), removed on success.
 ANALYSIS_ERROR_FILE = schema.ANALYSIS_ERROR
+#: Status of a run whose analysis.h5 could not be written (full disk, quota, read-only).
+UNWRITTEN = "not written"
 
 DEFAULT_SETTINGS = {
     "transient": 0.2,
@@ -365,8 +370,12 @@ def read_analysis(path) -> dict:
 
 
 def _write_analysis(out_path: Path, traj, settings, sc, cv, extra) -> None:
-    out_path = Path(out_path)
-    tmp = out_path.with_name(f".{out_path.name}.{os.getpid()}.tmp")
+    """Write ``analysis.h5`` through :func:`fcsweep.io.sweepdir.atomic_write` (the old file
+    stays until the new one is complete; a full disk raises ``WriteFailure``)."""
+    atomic_write(out_path, lambda tmp: _write_h5(tmp, traj, settings, sc, cv, extra), fsync=True)
+
+
+def _write_h5(tmp: Path, traj, settings, sc, cv, extra) -> None:
     with h5py.File(tmp, "w", locking=False) as f:
         f.attrs["fcsweep_version"] = __version__
         f.attrs["created"] = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
@@ -387,7 +396,6 @@ def _write_analysis(out_path: Path, traj, settings, sc, cv, extra) -> None:
             c.create_dataset(name, data=np.asarray(y, dtype=float))
         f.create_dataset("n_sides_counts", data=extra["n_sides_counts"])
         f.create_dataset("frames", data=extra["frames"])
-    os.replace(tmp, out_path)
 
 
 def analyze_run(traj_path, out_path=None, *, transient=0.2, force=False, settings=None) -> dict:
@@ -443,11 +451,12 @@ def label_summary(sc: dict) -> str:
 
 
 def _record_failure(traj_path: Path, reason: str) -> None:
-    """A failed analysis leaves no stale analysis.h5 behind, and says why."""
+    """A failed analysis (an error of the analysis, not of the disk) leaves no stale
+    analysis.h5 behind, and says why."""
     rd = Path(traj_path).parent
     (rd / ANALYSIS_FILE).unlink(missing_ok=True)
     try:
-        (rd / ANALYSIS_ERROR_FILE).write_text(reason + "\n")
+        atomic_write(rd / ANALYSIS_ERROR_FILE, lambda tmp: tmp.write_text(reason + "\n"))
     except OSError:
         pass  # the run stays "not analysed", which aggregate reports too
 
@@ -455,6 +464,12 @@ def _record_failure(traj_path: Path, reason: str) -> None:
 def _analyze_task(traj_path, transient, force, settings):
     try:
         res = analyze_run(traj_path, transient=transient, force=force, settings=settings)
+    except WriteFailure as exc:  # the environment: the previous analysis.h5 stays
+        return UNWRITTEN, advice(exc)
+    except (KeyboardInterrupt, Terminated, SystemExit) as exc:
+        if multiprocessing.parent_process() is not None:  # a -j worker: its files are clean, stop now
+            os._exit(130 if isinstance(exc, KeyboardInterrupt) else 143)
+        raise
     except (TrajectoryError, AnalysisError) as exc:
         _record_failure(traj_path, str(exc))
         return "failed", str(exc)
@@ -466,13 +481,21 @@ def _analyze_task(traj_path, transient, force, settings):
 
 
 def _init_worker(threads: int) -> None:
-    """Pool processes: freud uses ``threads`` threads, so processes x threads <= cores."""
+    """Pool processes: freud uses ``threads`` threads, so processes x threads <= cores.
+    Ctrl-C reaches the parent, which stops the workers with SIGTERM: a worker exits
+    quietly (after the rename of a write under way, see ``atomic_write``)."""
     import freud
 
     freud.parallel.set_num_threads(threads)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, _worker_exit)
 
 
-def analyze_sweep(config, *, workers=1, force=False, settings=None) -> list:
+def _worker_exit(signum, frame):
+    raise SystemExit(143)
+
+
+def analyze_sweep(config, *, workers=1, force=False, settings=None, say=None) -> list:
     """Analyse every finished run of a sweep.
 
     Runs that are not done (the state of :func:`fcsweep.io.sweepdir.run_state`, which
@@ -481,10 +504,15 @@ def analyze_sweep(config, *, workers=1, force=False, settings=None) -> list:
     ``fcsweep refine`` adds meanwhile are left for the next call.  The labels use the
     config's ``analysis`` section (:func:`config_settings`), overridden by ``settings``.
 
+    A results file that cannot be written (full disk, quota, read-only run directory:
+    :class:`fcsweep.io.failures.WriteFailure`) leaves the previous ``analysis.h5`` as it
+    was and is reported as :data:`UNWRITTEN`; the other runs go on.  Temporary files that
+    killed analyses left in the run directories are removed first, each told to ``say``.
+
     Returns
     -------
     list of (run_id, status, message)
-        status is "done", "skipped" or "failed", in run order.
+        status is "done", "skipped", "failed" or "not written", in run order.
     """
     transient = float(getattr(getattr(config, "run", None), "transient", DEFAULT_SETTINGS["transient"]))
     settings = {**config_settings(config), **dict(settings or {})}
@@ -500,16 +528,25 @@ def analyze_sweep(config, *, workers=1, force=False, settings=None) -> list:
             out[spec.run_id] = ("skipped", f"run {rs.state}" + (f": {rs.reason}" if rs.reason else ""))
         else:
             todo.append((spec.run_id, rd / TRAJECTORY_FILE))
+            for tmp in remove_stale(rd, (ANALYSIS_FILE, ANALYSIS_ERROR_FILE)):
+                (say or (lambda m: None))(f"removed {tmp}, left by a killed analysis")
     if workers <= 1 or len(todo) <= 1:
         for rid, tp in todo:
             out[rid] = _analyze_task(tp, transient, force, settings)
     else:
         processes, threads = worker_layout(workers)
-        with ProcessPoolExecutor(max_workers=processes, initializer=_init_worker, initargs=(threads,)) as pool:
+        pool = ProcessPoolExecutor(max_workers=processes, initializer=_init_worker, initargs=(threads,))
+        try:
             futs = {pool.submit(_analyze_task, tp, transient, force, settings): rid for rid, tp in todo}
             for fut in as_completed(futs):
                 try:
                     out[futs[fut]] = fut.result()
                 except Exception as exc:  # noqa: BLE001 - e.g. a worker killed for memory
                     out[futs[fut]] = ("failed", f"{type(exc).__name__}: {exc}")
+        except BaseException:  # a signal: workers stop now, removing their temporary files
+            for proc in list(getattr(pool, "_processes", {}).values()):
+                proc.terminate()
+            raise
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)
     return [(spec.run_id, *out[spec.run_id]) for spec in specs]

@@ -68,10 +68,14 @@ def sweep_dataset(config):
         with xr.open_dataset(nc) as ds:
             return ds.load()
     from fcsweep.analysis.aggregate import build_dataset, write_dataset
+    from fcsweep.io.failures import WriteFailure
 
     ds = build_dataset(config)
     if int(ds.attrs.get("n_analysed", 0)):
-        write_dataset(ds, nc)
+        try:
+            write_dataset(ds, nc)
+        except WriteFailure:  # kept in memory: the figures do not need the file
+            pass
     return ds
 
 

@@ -45,6 +45,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Mapping, Sequence
 
+from fcsweep.io.sweepdir import atomic_write
+
 __all__ = ["CellStepCost", "cell_step_seconds", "measure_point", "setting_points", "fallback_seconds",
            "cache_file", "machine_fingerprint", "CACHE_ENV", "FALLBACK_US"]
 
@@ -214,11 +216,9 @@ def _write(path: Path | None, key: str, entry: dict) -> None:
         path.parent.mkdir(parents=True, exist_ok=True)
         entries = _read(path)  # another process may have added entries meanwhile
         entries[key] = entry
-        tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")
-        tmp.write_text(json.dumps({"machine": machine_fingerprint(), "entries": entries}, indent=1,
-                                  sort_keys=True))
-        os.replace(tmp, path)
-    except OSError:  # read-only home: estimates still work, they are just not kept
+        text = json.dumps({"machine": machine_fingerprint(), "entries": entries}, indent=1, sort_keys=True)
+        atomic_write(path, lambda tmp: tmp.write_text(text))
+    except OSError:  # read-only home, full disk: estimates still work, they are just not kept
         pass
 
 

@@ -14,6 +14,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from fcsweep.analysis.phase import PHASE_FLAGS
+from fcsweep.io.failures import remove_stale
+from fcsweep.io.sweepdir import atomic_write
 
 
 TAU_PERC = 187.0 / 91.0
@@ -69,15 +71,23 @@ def _styled(fn):
 
 
 def save_figure(fig, stem, *, dpi: int = 300) -> list[Path]:
-    """Save ``fig`` as ``<stem>.png`` (``dpi``) and ``<stem>.pdf``; close it; return the paths."""
+    """Save ``fig`` as ``<stem>.png`` (``dpi``) and ``<stem>.pdf``; close it; return the paths.
+
+    Each file is written whole or not at all (:func:`fcsweep.io.sweepdir.atomic_write`):
+    a figure set that fails part way holds complete new files and complete old ones.
+    """
     stem = Path(stem)
     stem.parent.mkdir(parents=True, exist_ok=True)
     out = []
-    for ext in ("png", "pdf"):
-        p = stem.with_suffix(f".{ext}")
-        fig.savefig(p, dpi=dpi, bbox_inches="tight", pad_inches=0.03)  # legends below the axes stay in
-        out.append(p)
-    plt.close(fig)
+    try:
+        for ext in ("png", "pdf"):
+            p = stem.with_suffix(f".{ext}")
+            remove_stale(p.parent, (p.name,))
+            atomic_write(p, lambda tmp, ext=ext: fig.savefig(tmp, format=ext, dpi=dpi, bbox_inches="tight",
+                                                            pad_inches=0.03), fsync=True)  # legends below the axes stay in
+            out.append(p)
+    finally:
+        plt.close(fig)
     return out
 
 

@@ -11,6 +11,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from fcsweep.analysis.figures.common import COLUMN, OKABE_ITO, STYLE, TIME_UNIT, save_figure
+from fcsweep.io.failures import remove_stale
+from fcsweep.io.sweepdir import atomic_write
 from fcsweep.model.shape import Q_STAR
 
 
@@ -254,16 +256,14 @@ def movie_run(traj_path, out=None, *, fps=10, every=1, dpi=120, progress=True) -
     frames = range(0, traj.n_frames, max(int(every), 1))
     # frames are whole macro blocks (no rescaling by ffmpeg); yuv420p plays everywhere (QuickTime, browsers)
     art = FrameArtist(traj.box / float(traj.params.get("R0", 1.0)), width=SLIDE, dpi=dpi, style=SLIDE_STYLE)
-    tmp = out.with_name(f".{out.stem}.partial{out.suffix}")
-    try:
+    remove_stale(out.parent, (out.name,))
+
+    def write(tmp: Path) -> None:
         with imageio.get_writer(tmp, fps=fps, codec="libx264", quality=8, macro_block_size=MACRO_BLOCK,
                                 pixelformat="yuv420p", ffmpeg_log_level="error") as writer:
             for k in tqdm(frames, desc="movie", unit="frame", disable=not progress):
                 pos, theta, a, b, q, defect = _frame(traj, k)
                 art.draw(pos, theta, a, b, q, defect, _frame_title(traj, k, defect))
                 writer.append_data(art.rgb())
-        tmp.replace(out)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
-    return out
+
+    return atomic_write(out, write, fsync=True, suffix=out.suffix, interruptible=True)
