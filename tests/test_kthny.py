@@ -17,6 +17,7 @@ import pytest
 from synthetic import aligned_mosaic, random_sequential_discs, triangular_crystal
 
 from fcsweep.analysis import kthny, order
+from fcsweep.analysis.cage import neighbour_spacing
 from fcsweep.analysis.phase import (KTHNY_FLAGS, KTHNY_HEXATIC, KTHNY_LIQUID, KTHNY_SOLID, KTHNY_UNDETERMINED,
                                     kthny_name)
 from fcsweep.analysis.pipeline import _frame_mean
@@ -29,28 +30,41 @@ MAKERS = {
 }
 
 
-@functools.cache
-def _frames(name, frames, seed):
-    """Per-frame G6(r) and G_r(dx, 0) of independent configurations (cached: they are the slow part)."""
-    rng = np.random.default_rng(seed)
-    g6s, grs = [], []
-    for _ in range(frames):
-        pos, box = MAKERS[name](rng)
+def _curves(configs):
+    """Per-frame G6(r), G_r(dx, 0) and C_G1(r) of configurations, as the pipeline computes them."""
+    g6s, grs, cgs = [], [], []
+    for pos, box in configs:
         ps = order.psi6(pos, box)
         _, ang = order.global_psi6(ps)
         r, g = order.g6(pos, box, ps, dr=0.1)
-        dx, gr = order.gr_cut(pos, box, ang, dx=0.1)
+        pairs = order.pair_vectors(pos, box, order.max_range(box))
+        dx, gr = order.gr_cut(pos, box, ang, dx=0.1, vectors=pairs)
+        G1 = order.first_shell_vectors(pos, box, ang, neighbour_spacing(len(pos), box))
+        _, cg = order.shell_correlation(pairs, G1, dr=0.1, r_max=order.max_range(box))
         g6s.append(g)
         grs.append(gr)
-    return r, np.array(g6s), dx, np.array(grs), len(pos)
+        cgs.append(cg)
+    return r, np.array(g6s), dx, np.array(grs), np.array(cgs), len(pos)
 
 
-def _fits(name, frames, seed, use=None):
-    r, g6s, dx, grs, N = _frames(name, frames, seed)
+@functools.cache
+def _frames(name, frames, seed):
+    """Per-frame curves of independent configurations (cached: they are the slow part)."""
+    rng = np.random.default_rng(seed)
+    return _curves(MAKERS[name](rng) for _ in range(frames))
+
+
+def _fits_of(curves, use=None):
+    r, g6s, dx, grs, cgs, N = curves
     use = slice(None) if use is None else use
     G6, G6e = _frame_mean(g6s[use])
     Gr, Gre = _frame_mean(grs[use])
-    return kthny.kthny_fits(r, G6, dx, Gr, G6_err=G6e, Gr_err=Gre), N
+    CG, CGe = _frame_mean(cgs[use])
+    return kthny.kthny_fits(r, G6, dx, Gr, G6_err=G6e, Gr_err=Gre, C_G1=CG, C_G1_err=CGe), N
+
+
+def _fits(name, frames, seed, use=None):
+    return _fits_of(_frames(name, frames, seed), use)
 
 
 def test_names_and_flags():
