@@ -1,54 +1,59 @@
-"""KTHNY (2-D melting) classification from G_r(dx, 0) and G6(r).
+"""KTHNY (2-D melting) classification from C_G1(r) and G6(r); the G_r(dx, 0) envelope for figures.
 
 KTHNY theory tells the three phases of a 2-D system by how its correlations decay:
 
-- **solid**: translational order quasi-long-ranged, the peaks of ``G_r(dx, 0) - 1``
-  decaying algebraically with exponent ``eta_T <= 1/3`` (1/3 at melting); bond order
-  long-ranged, ``G6(r)`` tending to a constant;
-- **hexatic**: translational order short-ranged (exponential envelope), bond order
-  quasi-long-ranged, ``G6 ~ r^(-eta_6)`` with ``eta_6 <= 1/4``;
+- **solid**: translational order quasi-long-ranged, the first-shell correlation
+  ``C_G1(r) = Re <psi_G,i psi_G,j*>`` (``psi_G,i = exp(i G1 . r_i)``) decaying as
+  ``r^(-eta_G1)`` with ``eta_G1 <= 1/3`` (1/3 at melting); bond order long-ranged;
+- **hexatic**: translational order decaying faster, bond order quasi-long-ranged,
+  ``G6 ~ r^(-eta_6)`` with ``eta_6 <= 1/4``;
 - **liquid**: both short-ranged.
 
-:func:`kthny_fits` fits the peak envelope of ``G_r - 1`` and ``G6`` to ``A r^(-eta)`` and
-``A exp(-r / xi)`` (weighted least squares of the logarithm over the distances where the
-curve stands clear of its noise, up to half the box), with 1-sigma errors from the fit
-(scaled up by ``sqrt(chi2 / dof)`` when the points scatter more than their errors).
-:func:`classify_kthny` decides with the algebraic exponents against the KTHNY bounds:
-an exponential decay over the fitted range reads as a large effective exponent, so
+The bound 1/3 is on the first Bragg shell's exponent.  The peak envelope of
+``G_r(dx, 0) - 1`` sums all shells (``eta_G = eta_G1 G^2 / G1^2``: the second shell 3x,
+the third 4x), so its log-slope over a box overstates ``eta_G1``; ``eta_T`` is still fitted
+(the paper's figure) but decides nothing.
 
-    P(solid)   = P(eta_T < 1/3) P(eta_6 < 1/4),
-    P(hexatic) = P(eta_T > 1/3) P(eta_6 < 1/4),
+:func:`kthny_fits` fits ``C_G1`` (on windows of half a spacing, :func:`rebin`) and the
+``G_r`` envelope from a quarter of half the box on, ``G6`` from the shell beyond its first
+inter-shell minimum (:func:`g6_fit_start`), to ``A r^(-eta)`` and ``A exp(-r / xi)``
+(weighted least squares of the logarithm over the distances where the curve stands clear
+of its noise, up to half the box), with 1-sigma errors from the fit (scaled up by
+``sqrt(chi2 / dof)`` when the points scatter more than their errors) and the spread over
+the fit ranges ``RANGES`` x L/2 added in quadrature (:func:`ranged_fit`).
+:func:`classify_kthny` decides with the algebraic exponents against the KTHNY bounds: an
+exponential decay over the fitted range reads as a large effective exponent, so
+
+    P(solid)   = P(eta_G1 < 1/3) P(eta_6 < 1/4),
+    P(hexatic) = P(eta_G1 > 1/3) P(eta_6 < 1/4),
     P(liquid)  = P(eta_6 > 1/4),
 
-each Gaussian in the fitted exponent. A curve that falls into its noise (a point less
-than 2 errors above zero) within half the fitted range is not fitted; it is tested against
-the slowest decay its bound allows, ``y_ref (r / r_ref)^(-1/3)`` (``-1/4`` for G6) drawn
-from its last point 5 pooled errors above zero, and P(eta <= bound) = Phi(d / s) with
-``d`` the mean excess of the points after the fall over that curve and ``s`` its error
-(:func:`_p_above_bound`). Without errors on G_r (one frame) the envelope is not used:
-local maxima of noise are positive and flat and would read as eta_T ~ 0, so such a curve
-can only say liquid (from G6). The label is the most probable one when it reaches the
-confidence, else undetermined.
+each Gaussian in the fitted exponent with its total error. A curve that falls into its
+noise (a point less than 2 errors above zero) within half the fitted range is not fitted;
+it is tested against the slowest decay its bound allows, ``y_ref (r / r_ref)^(-1/3)``
+(``-1/4`` for G6) drawn from its last point 5 pooled errors above zero, and
+P(eta <= bound) = Phi(d / s) with ``d`` the mean excess of the points after the fall over
+that curve and ``s`` its error (:func:`_p_above_bound`). Without frame errors on C_G1 (one
+frame) or without C_G1 the translational order is not decided, so such a curve can only
+say liquid (from G6). The label is the most probable one when it reaches the confidence,
+else undetermined.
 
-**What N a decision needs.** The envelope is fitted from a quarter of the range on (its
+**What N a decision needs.** The decays are fitted from a quarter of the range on (their
 asymptotic part), so a decision needs at least ``MIN_CELLS`` = 4096 cells (half the box
 then spans 32 neighbour spacings). Measured on N = 1024 crystals of the model (eta = 0.1,
 v0 = 0.01-0.03, 1000 time units): the effective exponent of the envelope still falls with
 the start of the fit (1.03, 0.90, 0.65 from 1, 3 and 5 spacings at v0 = 0.03), so at 16
-spacings the asymptotic exponent is not reached. The synthetic cases decide much earlier
-(``n_cells`` not given, 2 frames, every decided label right): jittered triangular crystals
-(jitter 0.1) solid from N = 256-576 on (at 256 one seed of three undetermined), random
-sequential discs (area fraction 0.45) liquid from N = 256, aligned mosaics of crystallites
-(tests/synthetic.py ``aligned_mosaic``: bond order long-ranged, translational order
-lost over a domain of 4-8 spacings) hexatic from N ~ 2000 (at N ~ 900 one of two
-undetermined).
+spacings the asymptotic exponent is not reached; a 32 x 32 harmonic crystal of
+``eta_G1 = 0.5`` reads 0.41 +- 0.21 (fit-range spread 0.19): undecided.  The synthetic
+cases of tests/test_kthny.py (jittered crystal, random discs, aligned mosaic, harmonic
+crystals) are decided right at N ~ 4096 from 2-10 frames.
 """
 
 from __future__ import annotations
 
 import numpy as np
 from scipy.signal import find_peaks
-from scipy.special import ndtr
+from scipy.special import j0, ndtr
 
 from fcsweep.analysis.phase import (KTHNY_HEXATIC, KTHNY_LIQUID, KTHNY_SOLID, KTHNY_UNDETERMINED, KTHNY_UNKNOWN,
                                     MIN_CONFIDENCE, Label, kthny_name)
@@ -114,12 +119,14 @@ def _log_fit(X, y, e):
     return coef, np.sqrt(np.diag(cov)), chi2
 
 
-def fit_decays(r, y, y_err=None, *, r_min: float = 0.0, r_max: float | None = None) -> dict:
+def fit_decays(r, y, y_err=None, *, r_min: float = 0.0, r_max: float | None = None, log_r=None) -> dict:
     """Fit ``y = A r^(-eta)`` and ``y = A exp(-r / xi)`` over the points clear of the noise.
 
     Points with ``r_min <= r <= r_max`` are used from the first on, up to the first that is
     not positive or not 2 errors above zero (the curve has sunk into its noise).  Without
     ``y_err`` the errors are taken from the scatter about each fit (equal weights).
+    ``log_r`` (same shape as ``r``) replaces ``ln r`` in the algebraic fit, e.g. by its
+    periodic-box form :func:`periodic_log`.
 
     Returns
     -------
@@ -132,11 +139,12 @@ def fit_decays(r, y, y_err=None, *, r_min: float = 0.0, r_max: float | None = No
     y = np.asarray(y, dtype=float)
     e = np.full(y.shape, np.nan) if y_err is None else np.asarray(y_err, dtype=float)
     r_max = float(np.nanmax(r)) if r_max is None else float(r_max)
+    lr = np.log(np.where(r > 0, r, np.nan)) if log_r is None else np.asarray(log_r, dtype=float)
     keep = (r >= r_min) & (r <= r_max) & np.isfinite(y)
-    r, y, e = r[keep], y[keep], e[keep]
+    r, y, e, lr = r[keep], y[keep], e[keep], lr[keep]
     clear = _clear(y, e)
     stop = int(np.argmin(clear)) if not clear.all() else y.size
-    r, y, e = r[:stop], y[:stop], e[:stop]
+    r, y, e, lr = r[:stop], y[:stop], e[:stop], lr[:stop]
     nan = float("nan")
     out = {"eta": nan, "eta_err": nan, "xi": nan, "xi_err": nan, "chi2_power": nan, "chi2_exp": nan,
            "n": int(r.size), "r_end": float(r[-1]) if r.size else nan,
@@ -148,7 +156,7 @@ def fit_decays(r, y, y_err=None, *, r_min: float = 0.0, r_max: float | None = No
         e_from_fit = True
     else:
         e_from_fit = False
-    (c, ce, chi_p) = _log_fit(np.log(r), y, e)
+    (c, ce, chi_p) = _log_fit(lr, y, e)
     (d, de, chi_e) = _log_fit(r, y, e)
     if e_from_fit:  # unit weights: the scale is the residual scatter itself
         ce = ce / np.sqrt(max(chi_p, 1.0)) * np.sqrt(chi_p)
@@ -182,7 +190,33 @@ def g6_fit_start(r, G6, spacing: float) -> float:
     return float(r[after[int(np.argmax(y[after]))]]) if after.size else float(r_dip)
 
 
-def ranged_fit(x, y, e, *, r_min: float, r_max: float) -> dict:
+def periodic_log(r, box, spacing: float) -> np.ndarray:
+    """The periodic box's form of ``ln r`` for an elastic (harmonic) crystal.
+
+    ``f(r) = (2 pi / A) sum_k (1 - J0(k r)) / k^2`` over the box's modes
+    ``k = 2 pi (m / Lx, n / Ly)``, ``0 < |k| <= k_D`` (``k_D^2 = 8 pi / (sqrt(3) a^2)``:
+    one mode per cell, the Debye disc), ``A`` the box area.  For a harmonic crystal with a
+    ``c / k^2`` displacement spectrum ``-ln C_G1(r) = eta_G1 f(r) + const`` with the exact
+    ``eta_G1 = G1^2 c A / (4 pi)`` (tests/synthetic.py ``harmonic_crystal``; ``J0`` is
+    the mean of ``cos k.r`` over the pair directions).  In an infinite box ``f`` tends to
+    ``ln(k_D r) - 0.116``, so ``C_G1 ~ r^(-eta_G1)``; in a periodic box it flattens
+    towards ``L/2`` and a fit against ``ln r`` reads the exponent low (exact curve of a
+    64 x 64 crystal of ``eta_G1 = 0.5``: 0.38 to L/2).
+    """
+    Lx, Ly = float(box[0]), float(box[1])
+    kd = np.sqrt(8.0 * np.pi / np.sqrt(3.0)) / float(spacing)
+    mx, my = int(np.ceil(kd * Lx / (2 * np.pi))), int(np.ceil(kd * Ly / (2 * np.pi)))
+    kx, ky = np.meshgrid(2 * np.pi / Lx * np.arange(-mx, mx + 1), 2 * np.pi / Ly * np.arange(-my, my + 1))
+    k = np.hypot(kx, ky).ravel()
+    k = k[(k > 0) & (k <= kd)]
+    r = np.asarray(r, dtype=float)
+    out = np.empty(r.shape)
+    for i, x in enumerate(r.ravel()):
+        out.flat[i] = np.sum((1.0 - j0(k * x)) / (k * k))
+    return out * 2.0 * np.pi / (Lx * Ly)
+
+
+def ranged_fit(x, y, e, *, r_min: float, r_max: float, log_r=None) -> dict:
     """:func:`fit_decays` to ``r_max``, with the spread over the fit ranges in its error.
 
     The exponent is fitted up to each of ``RANGES`` x ``r_max``; the quoted one is the
@@ -192,7 +226,7 @@ def ranged_fit(x, y, e, *, r_min: float, r_max: float) -> dict:
     asymptotic regime depends on the range (measured: eta_T = 0.08, 0.45 and 0.58 to 1,
     0.75 and 0.6 of L/2 at N = 4900, v0 = 0.03), which the statistical error omits.
     """
-    fits = [fit_decays(x, y, e, r_min=r_min, r_max=f * r_max) for f in RANGES]
+    fits = [fit_decays(x, y, e, r_min=r_min, r_max=f * r_max, log_r=log_r) for f in RANGES]
     out = dict(fits[-1])
     etas = np.array([f["eta"] for f in fits[:-1]], dtype=float)
     etas = etas[np.isfinite(etas)]
@@ -202,7 +236,7 @@ def ranged_fit(x, y, e, *, r_min: float, r_max: float) -> dict:
 
 
 def kthny_fits(r, G6, dx, Gr, *, G6_err=None, Gr_err=None, spacing: float | None = None,
-               C_G1=None, C_G1_err=None) -> dict:
+               C_G1=None, C_G1_err=None, box=None) -> dict:
     """Decay fits of the first-shell correlation, the ``G_r(dx, 0) - 1`` envelope and ``G6(r)``.
 
     Parameters
@@ -219,6 +253,9 @@ def kthny_fits(r, G6, dx, Gr, *, G6_err=None, Gr_err=None, spacing: float | None
         First-shell correlation on the bins ``r`` of G6
         (:func:`fcsweep.analysis.order.shell_correlation`), frame mean; without it the
         translational order cannot be decided.
+    box : (Lx, Ly), optional
+        The periodic box: ``C_G1`` is then fitted to ``A exp(-eta_G1 f(r))`` with ``f`` the
+        box's form of ``ln r`` (:func:`periodic_log`), else to ``A r^(-eta_G1)``.
 
     Returns
     -------
@@ -261,7 +298,7 @@ def kthny_fits(r, G6, dx, Gr, *, G6_err=None, Gr_err=None, spacing: float | None
                                          None if G6_err is None else np.asarray(G6_err, dtype=float),
                                          ETA_6_MAX, r6, r_max) if six["sunk"] else nan,
            "r_max": r_max}
-    out.update(_g1_fits(r, C_G1, C_G1_err, r_T, r_max, a))
+    out.update(_g1_fits(r, C_G1, C_G1_err, r_T, r_max, a, box))
     return out
 
 
@@ -288,14 +325,15 @@ def rebin(r, y, e, width: float):
     return mean(r[ok]), mean(y[ok]), np.sqrt(mean(e[ok] ** 2))
 
 
-def _g1_fits(r, C, C_err, r_min: float, r_max: float, spacing: float) -> dict:
+def _g1_fits(r, C, C_err, r_min: float, r_max: float, spacing: float, box=None) -> dict:
     """The ``G1`` part of :func:`kthny_fits` (all NaN without ``C``).
 
     ``C_G1`` is fitted on windows of half a spacing (:func:`rebin`): binned by ``|r_ij|``,
     it varies from bin to bin by which lattice vectors the displacements carry into a
     bin, the same in every frame (measured on a jittered crystal: a scatter of 0.05 about
     0.59 against frame errors of 1e-3, chi2/dof ~ 1e5), so weighted by the frame errors
-    the fit follows a few bins (eta_G1 0.05-0.17 for a flat curve).
+    the fit follows a few bins (eta_G1 0.05-0.17 for a flat curve).  With ``box`` the
+    algebraic decay is fitted in its periodic-box form (:func:`periodic_log`).
     """
     nan = float("nan")
     if C is None:
@@ -303,7 +341,8 @@ def _g1_fits(r, C, C_err, r_min: float, r_max: float, spacing: float) -> dict:
                 "G1_r_end": nan, "G1_p_bound": nan, "G1_errors": False, "G1_computed": False}
     r, C, e = rebin(r, C, C_err, 0.5 * spacing)
     e = None if C_err is None else e
-    f = ranged_fit(r, C, e, r_min=r_min, r_max=r_max)
+    lr = None if box is None else periodic_log(r, box, spacing)
+    f = ranged_fit(r, C, e, r_min=r_min, r_max=r_max, log_r=lr)
     sel = (r >= r_min) & (r <= r_max) & np.isfinite(C)
     return {"eta_G1": f["eta"], "eta_G1_err": f["eta_err"], "eta_G1_spread": f["eta_spread"],
             "G1_points": f["n"], "G1_sunk": f["sunk"], "G1_r_end": f["r_end"],

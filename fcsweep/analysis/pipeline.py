@@ -229,7 +229,7 @@ def compute_observables(traj, settings: dict, *, curves: bool = True,
             cv["Gr"] = (dxs, np.mean(np.asarray(grs), axis=0))
             cv["C_G1"] = (r, np.nanmean(np.asarray(cgs), axis=0) if r.size else r.copy())
         sc.update(_kthny(r, np.asarray(g6s), dxs, np.asarray(grs), N, float(settings["label_confidence"]),
-                         spacing, np.asarray(cgs)))
+                         spacing, np.asarray(cgs), boxr))
     else:
         sc.update(_kthny(None, None, None, None, N, float(settings["label_confidence"]), np.nan))
 
@@ -334,7 +334,7 @@ def _frame_mean(curves: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _kthny(r, g6_frames, dx, gr_frames, n_cells: int, confidence: float, spacing: float,
-           cg_frames=None) -> dict:
+           cg_frames=None, box=None) -> dict:
     """KTHNY fits and label from the per-frame G6(r), G_r(dx, 0) and C_G1(r) (NaN without curves)."""
     out = {k: np.nan for k in KTHNY_SCALARS}
     out["kthny_reason"] = "correlations not computed"
@@ -343,7 +343,8 @@ def _kthny(r, g6_frames, dx, gr_frames, n_cells: int, confidence: float, spacing
     G6, G6e = _frame_mean(g6_frames)
     Gr, Gre = _frame_mean(gr_frames)
     CG, CGe = _frame_mean(cg_frames) if cg_frames is not None and cg_frames.size else (None, None)
-    fits = kthny.kthny_fits(r, G6, dx, Gr, G6_err=G6e, Gr_err=Gre, spacing=spacing, C_G1=CG, C_G1_err=CGe)
+    fits = kthny.kthny_fits(r, G6, dx, Gr, G6_err=G6e, Gr_err=Gre, spacing=spacing, C_G1=CG, C_G1_err=CGe,
+                            box=box)
     lab = kthny.classify_kthny(fits, min_confidence=confidence, n_cells=n_cells)
     for k in KTHNY_FIT_KEYS:
         out[k] = float(fits.get(k, np.nan))
