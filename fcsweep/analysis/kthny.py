@@ -45,7 +45,7 @@ then spans 32 neighbour spacings). Measured on N = 1024 crystals of the model (e
 v0 = 0.01-0.03, 1000 time units): the effective exponent of the envelope still falls with
 the start of the fit (1.03, 0.90, 0.65 from 1, 3 and 5 spacings at v0 = 0.03), so at 16
 spacings the asymptotic exponent is not reached; a 32 x 32 harmonic crystal of
-``eta_G1 = 0.5`` reads 0.50 +- 0.19 (fit-range spread 0.15): undecided.  The synthetic
+``eta_G1 = 0.5`` reads 0.50 +- 0.13: undecided (P(hexatic) = 0.91).  The synthetic
 cases of tests/test_kthny.py (jittered crystal, random discs, aligned mosaic, harmonic
 crystals) are decided right at N ~ 4096 from 2-10 frames.
 """
@@ -229,8 +229,8 @@ def ranged_fit(x, y, e, *, r_min: float, r_max: float, log_r=None) -> dict:
     v0 = 0.03), which the statistical error omits.  A fit to a sub-range shares its points
     with the full fit, so their difference has the variance ``err_sub^2 - err_full^2``
     from noise alone; that much of the shift is taken out in quadrature (else the noise
-    counts twice: a harmonic crystal of eta_G1 = 0.5, 10 frames, read 0.57 +- 0.10 with a
-    raw shift of 0.13 from a sub-range fit of error 0.2).
+    counts twice: a 64 x 64 harmonic crystal of eta_G1 = 0.5, 10 frames, read
+    0.57 +- 0.16 with the raw shift of 0.13 and 0.57 +- 0.10 without it).
     """
     fits = [fit_decays(x, y, e, r_min=r_min, r_max=f * r_max, log_r=log_r) for f in RANGES]
     out = dict(fits[-1])
