@@ -7,6 +7,8 @@
   random-walk amplitudes, plus independent thermal noise.
 - :func:`triangular_crystal`, :func:`random_sequential_discs`, :func:`aligned_mosaic`:
   KTHNY solid, liquid and hexatic-like configurations.
+- :func:`harmonic_crystal`, :func:`harmonic_cg1`: a triangular lattice with a Gaussian
+  c/k^2 displacement field (first-shell exponent eta_G1 known exactly) and its exact C_G1(r).
 """
 
 import numpy as np
@@ -156,3 +158,86 @@ def creeping_lattice(D, rng, *, n_side=16, area_fraction=0.95, R0=1.0, jitter=0.
     noise[0] = rng.normal(scale=sd, size=(N, 2))
     u = lfilter([1.0], [1.0, -f], noise, axis=0)
     return np.arange(T) * frame_dt, sites[None] + walk + u, box
+
+
+G1A = 4 * np.pi / np.sqrt(3)  # |G1| a of a triangular lattice
+
+
+def _harmonic_modes(n, a):
+    """Sites (N, 2), box and the box's modes k (M, 2) at the sites, k = 0 left out.
+
+    The modes are ``k = 2 pi (m / Lx, l / Ly)`` with ``m, l`` in ``[-n/2, n/2)``: n^2 - 1 of
+    them, one per Bloch vector of the lattice (a zone of the area of the Brillouin zone)."""
+    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    sites = np.stack([((i + 0.5 * (j % 2)) * a).ravel(), (j * a * np.sqrt(3) / 2).ravel()], 1)
+    box = (n * a, n * a * np.sqrt(3) / 2)
+    m = np.arange(-n // 2, n // 2)
+    k = np.stack(np.meshgrid(m, m, indexing="ij"), -1).reshape(-1, 2) * (2 * np.pi / np.array(box))
+    return sites, box, k[np.any(k != 0, axis=1)]
+
+
+def harmonic_c(eta_G1, n, a=1.0):
+    """Spectrum amplitude c of :func:`harmonic_crystal` for a first-shell exponent eta_G1."""
+    area = n * a * n * a * np.sqrt(3) / 2
+    return 4 * np.pi * eta_G1 / ((G1A / a) ** 2 * area)
+
+
+def harmonic_crystal(n, eta_G1, rng, frames=1, a=1.0):
+    """Triangular n x n lattice (n even) in its periodic box plus a Gaussian displacement
+    field with a c/k^2 spectrum, the harmonic crystal of first-shell exponent ``eta_G1``.
+
+    Convention: ``u_i = sum_k [A_k cos(k . R_i) + B_k sin(k . R_i)]`` over the box modes k
+    of :func:`_harmonic_modes` (both signs of k, each independently), with ``A_k``, ``B_k``
+    isotropic Gaussian 2-vectors of variance ``c / (2 k^2)`` per component, i.e.
+    ``<|u_k . e|^2> = <(A_k . e)^2 + (B_k . e)^2> = c / k^2`` for both polarisations e.
+    For a unit vector ``G^`` and ``d = R_j - R_i``, each mode adds
+    ``(c / (2 k^2)) [(cos k.R_j - cos k.R_i)^2 + (sin k.R_j - sin k.R_i)^2] = (c / k^2)(1 - cos k.d)``
+    to the variance of ``G^ . (u_j - u_i)``, so
+
+        D(d) = <(G^ . (u_j - u_i))^2> = sum_k (c / k^2) (1 - cos k . d)
+
+    exactly, and since ``G1 . d`` is a multiple of 2 pi and the field Gaussian,
+    ``C_G1(d) = <cos G1 . (d + u_j - u_i)> = exp(-G1^2 D(d) / 2)``.  In the continuum
+    ``sum_k -> A / (2 pi)^2 int d^2k`` and ``int d^2k (1 - cos k.d) / k^2 = 2 pi ln(d) + const``,
+    so ``D = (c A / (2 pi)) ln d + const`` and ``C_G1 ~ d^(-eta_G1)`` with
+    ``eta_G1 = G1^2 c A / (4 pi)`` (A the box area, ``G1 = 4 pi / (sqrt(3) a)``).
+
+    Returns
+    -------
+    list of (positions, box)
+        ``frames`` independent configurations, positions wrapped into the box.
+    """
+    sites, box, k = _harmonic_modes(n, a)
+    c = harmonic_c(eta_G1, n, a)
+    sd = np.sqrt(c / (2 * np.sum(k * k, axis=1)))
+    ph = sites @ k.T
+    cos, sin = np.cos(ph), np.sin(ph)
+    out = []
+    for _ in range(frames):
+        A = rng.normal(size=(k.shape[0], 2)) * sd[:, None]
+        B = rng.normal(size=(k.shape[0], 2)) * sd[:, None]
+        out.append((np.mod(sites + cos @ A + sin @ B, box), box))
+    return out
+
+
+def harmonic_cg1(n, eta_G1, dr, r_max, a=1.0):
+    """Exact C_G1(r) of :func:`harmonic_crystal`, binned like ``order.shell_correlation``:
+    the mean of ``exp(-G1^2 D(d) / 2)`` over the lattice vectors d (minimum image, each
+    once per site, as the pairs are) with ``|d|`` in the bin (the bins of the measured
+    curve hold the displaced separations; the difference is a smearing within a bin)."""
+    sites, box, k = _harmonic_modes(n, a)
+    L = np.array(box)
+    d = sites - sites[0]
+    d -= L * np.round(d / L)
+    c = harmonic_c(eta_G1, n, a)
+    w = c / np.sum(k * k, axis=1)
+    D = np.array([np.sum(w * (1 - np.cos(k @ x))) for x in d])
+    C = np.exp(-0.5 * (G1A / a) ** 2 * D)
+    nb = int(np.floor(r_max / dr + 1e-9))
+    r = (np.arange(nb) + 0.5) * dr
+    idx = (np.hypot(d[:, 0], d[:, 1]) / dr).astype(int)
+    keep = (idx < nb) & (idx > 0)
+    s = np.bincount(idx[keep], weights=C[keep], minlength=nb)
+    m = np.bincount(idx[keep], minlength=nb)
+    with np.errstate(invalid="ignore"):
+        return r, np.where(m > 0, s / m, np.nan)

@@ -93,7 +93,8 @@ DEFAULT_SETTINGS = {
 #: numbers and label codes of the observable table (:mod:`fcsweep.io.observables`).
 SCALARS = RUN_SCALARS + LABELS
 #: KTHNY fit results (:func:`fcsweep.analysis.kthny.kthny_fits`) stored per run.
-KTHNY_FIT_KEYS = ("eta_T", "eta_T_err", "xi_T", "xi_T_err", "eta_6", "eta_6_err", "xi_6", "xi_6_err")
+KTHNY_FIT_KEYS = ("eta_G1", "eta_G1_err", "eta_T", "eta_T_err", "xi_T", "xi_T_err", "eta_6", "eta_6_err",
+                  "xi_6", "xi_6_err")
 KTHNY_SCALARS = KTHNY_FIT_KEYS + ("kthny", "kthny_confidence")
 #: Label explanations stored as string attributes of ``/observables``.
 REASONS = ("phase_reason", "percolated_reason", "kthny_reason")
@@ -215,8 +216,9 @@ def compute_observables(traj, settings: dict, *, curves: bool = True,
 
     # --- hexatic order and correlations
     cf = set(_evenly(vf, int(settings["correlation_frames"])).tolist()) if curves else set()
-    mods, g6s, grs = [], [], []
+    mods, g6s, grs, cgs = [], [], [], []
     r = dxs = None
+    spacing = cage.neighbour_spacing(N, boxr)
     for f, P in zip(vf, pos) if (psi6 or curves) else ():  # G6 and G_r need Psi6 too
         vn = voronoi.voronoi_neighbors(P, boxr)
         ps = order.psi6(P, boxr, vn.nlist)
@@ -224,9 +226,14 @@ def compute_observables(traj, settings: dict, *, curves: bool = True,
         mods.append(mod)
         if int(f) in cf:
             r, g = order.g6(P, boxr, ps, dr=float(settings["g6_dr"]))
-            dxs, gr = order.gr_cut(P, boxr, ang, dx=float(settings["gr_dx"]))
+            pairs = order.pair_vectors(P, boxr, order.max_range(boxr))  # one query for G_r and C_G1
+            dxs, gr = order.gr_cut(P, boxr, ang, dx=float(settings["gr_dx"]), vectors=pairs)
+            G1 = order.first_shell_vectors(P, boxr, ang, spacing)
+            _, cg = order.shell_correlation(pairs, G1, dr=float(settings["g6_dr"]), r_max=order.max_range(boxr))
+            del pairs
             g6s.append(g)
             grs.append(gr)
+            cgs.append(cg)
     if mods:
         ta = time_average(np.asarray(mods))
         sc["psi6"], sc["psi6_err"] = ta.mean, ta.err
@@ -237,8 +244,9 @@ def compute_observables(traj, settings: dict, *, curves: bool = True,
             warnings.simplefilter("ignore", RuntimeWarning)  # bins without pairs in every frame
             cv["G6"] = (r, np.nanmean(np.asarray(g6s), axis=0) if r.size else r.copy())
             cv["Gr"] = (dxs, np.mean(np.asarray(grs), axis=0))
+            cv["C_G1"] = (r, np.nanmean(np.asarray(cgs), axis=0) if r.size else r.copy())
         sc.update(_kthny(r, np.asarray(g6s), dxs, np.asarray(grs), N, float(settings["label_confidence"]),
-                         cage.neighbour_spacing(N, boxr)))
+                         spacing, np.asarray(cgs), boxr))
     else:
         sc.update(_kthny(None, None, None, None, N, float(settings["label_confidence"]), np.nan))
 
@@ -339,15 +347,18 @@ def _frame_mean(curves: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return m, e
 
 
-def _kthny(r, g6_frames, dx, gr_frames, n_cells: int, confidence: float, spacing: float) -> dict:
-    """KTHNY fits and label from the per-frame G6(r) and G_r(dx, 0) (NaN without curves)."""
+def _kthny(r, g6_frames, dx, gr_frames, n_cells: int, confidence: float, spacing: float,
+           cg_frames=None, box=None) -> dict:
+    """KTHNY fits and label from the per-frame G6(r), G_r(dx, 0) and C_G1(r) (NaN without curves)."""
     out = {k: np.nan for k in KTHNY_SCALARS}
     out["kthny_reason"] = "correlations not computed"
     if r is None or g6_frames.size == 0 or gr_frames.size == 0:
         return out
     G6, G6e = _frame_mean(g6_frames)
     Gr, Gre = _frame_mean(gr_frames)
-    fits = kthny.kthny_fits(r, G6, dx, Gr, G6_err=G6e, Gr_err=Gre, spacing=spacing)
+    CG, CGe = _frame_mean(cg_frames) if cg_frames is not None and cg_frames.size else (None, None)
+    fits = kthny.kthny_fits(r, G6, dx, Gr, G6_err=G6e, Gr_err=Gre, spacing=spacing, C_G1=CG, C_G1_err=CGe,
+                            box=box)
     lab = kthny.classify_kthny(fits, min_confidence=confidence, n_cells=n_cells)
     for k in KTHNY_FIT_KEYS:
         out[k] = float(fits.get(k, np.nan))

@@ -129,12 +129,16 @@ OBSERVABLES: dict[str, Observable] = {o.name: o for o in (
                                "the lags >= cage_lag, over D0 (1 + <1/n>) (n: Voronoi neighbours); NaN where the "
                                "cages did not break (the fluid rule)", replicate=True),
     _O("D_eff_cr_late_err", "run", "1-sigma error of D_eff_cr_late (spatially contiguous cell blocks)"),
-    _O("eta_T", "run", "algebraic decay exponent of the G_r(dx, 0) - 1 peak envelope"),
-    _O("eta_T_err", "run", "1-sigma error of eta_T"),
+    _O("eta_G1", "run", "first-shell translational exponent: algebraic decay of C_G1(r) (the KTHNY solid bound "
+                        "1/3 applies to it)"),
+    _O("eta_G1_err", "run", "1-sigma error of eta_G1: statistical and the spread over fit ranges in quadrature"),
+    _O("eta_T", "run", "algebraic decay exponent of the G_r(dx, 0) - 1 peak envelope (all Bragg shells: steeper "
+                       "than eta_G1)"),
+    _O("eta_T_err", "run", "1-sigma error of eta_T: statistical and the spread over fit ranges in quadrature"),
     _O("xi_T", "run", "exponential decay length of the G_r(dx, 0) - 1 peak envelope (units of R0)"),
     _O("xi_T_err", "run", "1-sigma error of xi_T"),
     _O("eta_6", "run", "algebraic decay exponent of G6(r)"),
-    _O("eta_6_err", "run", "1-sigma error of eta_6"),
+    _O("eta_6_err", "run", "1-sigma error of eta_6: statistical and the spread over fit ranges in quadrature"),
     _O("xi_6", "run", "exponential decay length of G6(r) (units of R0)"),
     _O("xi_6_err", "run", "1-sigma error of xi_6"),
     _O("kthny_confidence", "run", "probability of the KTHNY label given the fit errors"),
@@ -155,15 +159,17 @@ OBSERVABLES: dict[str, Observable] = {o.name: o for o in (
     _O("msd", "curve", "drift-subtracted mean squared displacement (R0^2)", axis="lag_time"),
     _O("G6", "curve", "bond-orientational correlation Re <psi6_i psi6_j*>(r)", axis="r"),
     _O("Gr", "curve", "translational correlation G_r(dx, 0) along the mean hexatic axis, ideal gas = 1", axis="dx"),
+    _O("C_G1", "curve", "first-shell translational correlation Re <psi_G,i psi_G,j*>(r), psi_G,i = exp(i G . r_i), "
+                        "mean over the first-shell reciprocal vectors G", axis="r"),
     _O("phase", "label", "phase label: solid if D_eff < 1e-3, else soft fluid if <q> > 3.81, else fluid; with "
                          "broken cages D_eff_cr_late decides, without them only a trustworthy D_eff_cr < 1e-3 "
                          "(solid); undetermined below the required confidence"),
     _O("phase_reason", "text", "why the phase label is what it is", units=""),
     _O("percolated", "label", "defect percolation label: rho_d > percolation_threshold (default 1/2); undetermined "
                               "below the required confidence"),
-    _O("kthny", "label", "KTHNY label from the decay of G_r(dx, 0) peaks and G6(r): solid (G_r algebraic, eta_T <= "
-                         "1/3), hexatic (G_r short-ranged, G6 algebraic with eta_6 <= 1/4), liquid (both short-"
-                         "ranged)"),
+    _O("kthny", "label", "KTHNY label from the decay of C_G1(r) and G6(r): solid (C_G1 algebraic, eta_G1 <= 1/3), "
+                         "hexatic (C_G1 decaying faster, G6 algebraic with eta_6 <= 1/4), liquid (G6 decaying "
+                         "faster)"),
     _O("kthny_reason", "text", "why the KTHNY label is what it is", units=""),
     _O("kthny_point", "dataset", "KTHNY label common to the replicates (undetermined when they differ)"),
     _O("kthny_point_confidence", "dataset", "lowest replicate confidence of kthny_point"),
