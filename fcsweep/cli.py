@@ -69,7 +69,8 @@ def _rows(cfg, *, verify: bool = False):
     from fcsweep.analysis.pipeline import config_settings, settings_with
     from fcsweep.sweep.status import collect_status
 
-    return collect_status(cfg, analysis_settings=settings_with(config_settings(cfg), transient=cfg.run.transient), verify=verify)
+    settings = settings_with(config_settings(cfg), transient=cfg.run.transient)
+    return collect_status(cfg, analysis_settings=settings, verify=verify)
 
 
 def _say(msg: str) -> None:

@@ -4,11 +4,11 @@ tests of the results commands' writes (not part of the package)."""
 from __future__ import annotations
 
 import hashlib
-import json
 import shutil
 from pathlib import Path
 
-from test_aggregate_pipeline import YAML, write_trajectory
+import pytest
+from test_aggregate_pipeline import YAML, fake_done_runs
 
 from fcsweep.config import parse_config
 
@@ -21,12 +21,7 @@ def build(out: Path) -> Path:
     cfg_file = out / "sweep.yaml"
     cfg_file.write_text(YAML.format(out=out / "sweep"))
     cfg = parse_config(cfg_file.read_text())
-    for k, spec in enumerate(cfg.runs()):
-        rd = out / "sweep" / "runs" / spec.run_id
-        rd.mkdir(parents=True)
-        write_trajectory(rd / "trajectory.h5", {**dict(spec.params), "run_id": spec.run_id},
-                         T=61, fluid=spec.params["eta"] < 0.05, seed=k)
-        (rd / "status.json").write_text(json.dumps({"status": "done", "reason": ""}))
+    fake_done_runs(cfg, out / "sweep", fluid_below=0.05, T=61)
     analyze_sweep(cfg)
     aggregate_sweep(cfg)
     return cfg_file
@@ -49,3 +44,16 @@ def results(sweep: Path) -> dict[str, str]:
 def temporaries(root: Path) -> list[Path]:
     """Temporary or partial files anywhere under ``root``."""
     return [p for p in root.rglob(".*") if ".tmp" in p.name or "partial" in p.name]
+
+
+@pytest.fixture(scope="module")
+def analysed(tmp_path_factory):
+    """The analysed sweep, built once per test module."""
+    return build(tmp_path_factory.mktemp("analysed"))
+
+
+@pytest.fixture
+def sweep(analysed, tmp_path):
+    """A fresh copy of it per test: (config, sweep directory, its result files)."""
+    cfg = copy(analysed, tmp_path)
+    return cfg, tmp_path / "sweep", results(tmp_path / "sweep")

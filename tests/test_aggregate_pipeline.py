@@ -72,6 +72,18 @@ def write_trajectory(path, params, *, T=121, fluid=False, seed=0):
         par.attrs["config_json"] = json.dumps({"test": True})
 
 
+def fake_done_runs(cfg, out, *, fluid_below=None, **kwargs):
+    """Give every run of ``cfg`` a synthetic trajectory and a "done" status under ``out/runs``
+    (``fluid_below``: runs with eta below it are fluid; ``kwargs`` go to write_trajectory)."""
+    for k, spec in enumerate(cfg.runs()):
+        rd = out / "runs" / spec.run_id
+        rd.mkdir(parents=True)
+        fluid = fluid_below is not None and spec.params["eta"] < fluid_below
+        write_trajectory(rd / "trajectory.h5", {**dict(spec.params), "run_id": spec.run_id}, fluid=fluid, seed=k,
+                         **kwargs)
+        (rd / "status.json").write_text(json.dumps({"status": "done", "reason": ""}))
+
+
 @pytest.fixture(scope="module")
 def sweep(tmp_path_factory):
     out = tmp_path_factory.mktemp("sweep")
@@ -194,11 +206,7 @@ def test_any_swept_parameter_becomes_a_dimension(tmp_path):
                         "  eta: [0.1]\n  Dr: [0.003, 0.01]\n  quadrature: [binary, arc]\n")
     text = text.replace("v0: [0.03, 0.06]", "").replace("Dr: 1.0, ", "v0: 0.03, ")
     cfg = config_mod.parse_config(text.format(out=tmp_path))
-    for k, spec in enumerate(cfg.runs()):
-        rd = tmp_path / "runs" / spec.run_id
-        rd.mkdir(parents=True)
-        write_trajectory(rd / "trajectory.h5", {**dict(spec.params), "run_id": spec.run_id}, seed=k)
-        (rd / "status.json").write_text(json.dumps({"status": "done", "reason": ""}))
+    fake_done_runs(cfg, tmp_path)
     analyze_sweep(cfg, workers=1)
     ds = xr.open_dataset(aggregate_sweep(cfg))
     assert ds["D_eff"].dims == ("eta", "v0", "N", "Dr", "quadrature", "replicate")
@@ -215,11 +223,7 @@ def test_initial_becomes_a_string_dimension(tmp_path):
     text = YAML.replace("  eta: [0.01, 0.1]\n  v0: [0.03, 0.06]\n", "  eta: [0.1]\n  initial: [lattice, disordered]\n")
     text = text.replace("v0: [0.03, 0.06]", "").replace("Dr: 1.0, ", "Dr: 1.0, v0: 0.03, ")
     cfg = config_mod.parse_config(text.format(out=tmp_path))
-    for k, spec in enumerate(cfg.runs()):
-        rd = tmp_path / "runs" / spec.run_id
-        rd.mkdir(parents=True)
-        write_trajectory(rd / "trajectory.h5", {**dict(spec.params), "run_id": spec.run_id}, seed=k)
-        (rd / "status.json").write_text(json.dumps({"status": "done", "reason": ""}))
+    fake_done_runs(cfg, tmp_path)
     analyze_sweep(cfg, workers=1)
     ds = xr.open_dataset(aggregate_sweep(cfg))
     assert ds["phase"].dims == ("eta", "v0", "N", "initial", "replicate")
@@ -231,12 +235,7 @@ def test_initial_becomes_a_string_dimension(tmp_path):
 def _short_sweep(out, replicates=1, Dr=1.0):
     cfg = config_mod.parse_config(YAML.replace("replicates: 1", f"replicates: {replicates}")
                                   .replace("Dr: 1.0", f"Dr: {Dr}").format(out=out))
-    for k, spec in enumerate(cfg.runs()):
-        rd = out / "runs" / spec.run_id
-        rd.mkdir(parents=True)
-        write_trajectory(rd / "trajectory.h5", {**dict(spec.params), "run_id": spec.run_id},
-                         fluid=spec.params["eta"] < 0.05, seed=k)
-        (rd / "status.json").write_text(json.dumps({"status": "done", "reason": ""}))
+    fake_done_runs(cfg, out, fluid_below=0.05)
     analyze_sweep(cfg)
     return cfg
 

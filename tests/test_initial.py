@@ -81,7 +81,8 @@ def test_initial_lattice_and_no_initial_give_the_same_runs_and_trajectory():
 
 
 def test_both_starts_are_a_grid_dimension_with_distinct_ids():
-    cfg = parse_config(CONFIG.format(extra="").replace("  v0: [0.06]", "  v0: [0.06]\n  initial: [lattice, disordered]"))
+    text = CONFIG.format(extra="").replace("  v0: [0.06]", "  v0: [0.06]\n  initial: [lattice, disordered]")
+    cfg = parse_config(text)
     runs = cfg.runs()
     assert cfg.swept == ["eta", "v0", "initial"] and len(runs) == 4
     assert len({r.run_id for r in runs}) == 4 and len({r.seed for r in runs}) == 4

@@ -148,4 +148,5 @@ def test_the_config_analysis_section_reaches_the_analysis_settings():
     with pytest.raises(ConfigError, match=r"run.until.confidence = 0.9 is below analysis.label_confidence = 0.95"):
         parse_config(text)
     props = json_schema()["properties"]["analysis"]["properties"]
-    assert props["label_confidence"]["exclusiveMinimum"] == 0.5 and props["percolation_threshold"]["exclusiveMaximum"] == 1
+    assert props["label_confidence"]["exclusiveMinimum"] == 0.5
+    assert props["percolation_threshold"]["exclusiveMaximum"] == 1

@@ -28,20 +28,10 @@ import xarray as xr
 from click.testing import CliRunner
 
 import results_sweep as rs
+from results_sweep import analysed, sweep  # noqa: F401 - the shared fixtures
 from fcsweep.cli import cli
 
 ROOT = Path(__file__).resolve().parent.parent
-
-
-@pytest.fixture(scope="module")
-def analysed(tmp_path_factory):
-    return rs.build(tmp_path_factory.mktemp("analysed"))
-
-
-@pytest.fixture
-def sweep(analysed, tmp_path):
-    cfg = rs.copy(analysed, tmp_path)
-    return cfg, tmp_path / "sweep", rs.results(tmp_path / "sweep")
 
 
 def _env(**extra):

@@ -17,21 +17,11 @@ import pytest
 from click.testing import CliRunner
 
 import results_sweep as rs
+from results_sweep import analysed, sweep  # noqa: F401 - the shared fixtures
 from fcsweep.cli import cli
 from fcsweep.io import failures
 from fcsweep.io.failures import classify, remove_stale
 from fcsweep.io.sweepdir import atomic_write
-
-
-@pytest.fixture(scope="module")
-def analysed(tmp_path_factory):
-    return rs.build(tmp_path_factory.mktemp("analysed"))
-
-
-@pytest.fixture
-def sweep(analysed, tmp_path):
-    cfg = rs.copy(analysed, tmp_path)
-    return cfg, tmp_path / "sweep", rs.results(tmp_path / "sweep")
 
 
 def _run(args, **env):

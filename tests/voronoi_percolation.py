@@ -7,7 +7,8 @@ labelled and unlabelled cells, move it.  Here: the "Swiss cheese" labels, a cell
 when no centre of a Poisson set of discs of radius ``r`` covers it (positively correlated
 labels; in the continuum the uncovered phase percolates at area fraction 0.32), percolate
 below 1/2, while the symmetric labels of a thresholded Gaussian field (correlated, but
-labelled and unlabelled cells exchangeable) stay at 1/2.  Permuting the labels over the cells (:func:`fcsweep.analysis.voronoi.shuffled_defects`)
+labelled and unlabelled cells exchangeable) stay at 1/2.  Permuting the labels over the cells
+(:func:`fcsweep.analysis.voronoi.shuffled_defects`)
 restores 1/2.  Test helper (also used by the slow known-answer tests), not part of the package.
 """
 

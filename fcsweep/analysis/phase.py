@@ -123,7 +123,8 @@ def _fmt(x: float, e: float) -> str:
 
 def classify_phase(D_eff, D_eff_err, q_mean, q_mean_err, *, diffusion_ok: bool = True,
                    diffusion_note: str = "", cage_broken: float | None = None, cage_note: str = "",
-                   D_late: float = float("nan"), D_late_err: float = float("nan"), min_confidence: float = MIN_CONFIDENCE, d_solid: float = D_EFF_SOLID,
+                   D_late: float = float("nan"), D_late_err: float = float("nan"),
+                   min_confidence: float = MIN_CONFIDENCE, d_solid: float = D_EFF_SOLID,
                    q_star: float = Q_STAR) -> Label:
     """Phase label of one run or point with its confidence and the reason.
 

@@ -97,7 +97,8 @@ OBSERVABLES: dict[str, Observable] = {o.name: o for o in (
     _O("largest_cluster_fraction_err", "run", "1-sigma error of largest_cluster_fraction"),
     _O("largest_cluster_fraction_shuffled", "run", "largest defect cluster size / N with the defect labels "
                                                    "permuted at random over the cells of each frame's Voronoi graph "
-                                                   "(same rho_d and graph, label correlations destroyed), frame average",
+                                                   "(same rho_d and graph, label correlations destroyed), frame "
+                                                   "average",
        replicate=True),
     _O("largest_cluster_fraction_shuffled_err", "run", "1-sigma error of largest_cluster_fraction_shuffled"),
     _O("psi6", "run", "global hexatic order |Psi6| = |<psi6_i>|, frame average", replicate=True, until=True),

@@ -83,8 +83,9 @@ def save_figure(fig, stem, *, dpi: int = 300) -> list[Path]:
         for ext in ("png", "pdf"):
             p = stem.with_suffix(f".{ext}")
             remove_stale(p.parent, (p.name,))
+            # bbox_inches="tight": legends below the axes stay in
             atomic_write(p, lambda tmp, ext=ext: fig.savefig(tmp, format=ext, dpi=dpi, bbox_inches="tight",
-                                                            pad_inches=0.03), fsync=True)  # legends below the axes stay in
+                                                            pad_inches=0.03), fsync=True)
             out.append(p)
     finally:
         plt.close(fig)
