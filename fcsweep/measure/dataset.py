@@ -1,0 +1,154 @@
+"""``measure(labels, ...)``: a segmented movie in, an xarray.Dataset of the simulation's
+observables out; ``write_measure`` stores it as ``OUT/measure.nc``.
+
+Dimensions ``time`` (frames, in the user's time unit), ``cell`` (the cells of a frame in
+the order of their labels; NaN / fill where a frame has fewer cells; cells are not tracked
+across frames, so a cell index names different cells in different frames) and ``mode``
+(n = 2..M).  Every variable carries its CF ``units`` and ``long_name`` (:data:`VARIABLES`).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from fcsweep.io.sweepdir import atomic_write
+from fcsweep.measure.cells import measure_cells
+from fcsweep.measure.frames import PERCOLATION_THRESHOLD, frame_statistics
+from fcsweep.measure.readers import MeasureInputError, iter_frames
+from fcsweep.model.shape import Q_STAR
+
+__all__ = ["measure", "write_measure", "VARIABLES", "OUTPUT_NAME"]
+
+#: File written by ``fcsweep measure`` in its output directory.
+OUTPUT_NAME = "measure.nc"
+
+# name -> (dims, units, long_name); units "L", "L2", "T" stand for the user's units.
+_C, _T, _M = ("time", "cell"), ("time",), ("time", "cell", "mode")
+#: The variables of the measured dataset: dims, CF units ("L" / "L2" the length unit and its
+#: square, "T" the time unit) and long name.
+VARIABLES = {
+    "label": (_C, "1", "mask label of the cell in its frame (0: no cell)"),
+    "x": (_C, "L", "centroid x (column direction) of the cell's mask"),
+    "y": (_C, "L", "centroid y (row direction) of the cell's mask"),
+    "area": (_C, "L2", "area of the cell's mask"),
+    "perimeter_contour": (_C, "L", "length of the marching-squares contour of the mask (biased high)"),
+    "perimeter": (_C, "L", "perimeter of the least-squares fit of R(phi) to the contour"),
+    "q": (_C, "1", "shape index P / sqrt(A) of the fitted contour"),
+    "a": (_M, "1", "Fourier coefficient a_n of R(phi) about the centroid, lab frame, in units of sqrt(A / pi)"),
+    "b": (_M, "1", "Fourier coefficient b_n of R(phi) about the centroid, lab frame, in units of sqrt(A / pi)"),
+    "c_abs": (_M, "1", "rotation-invariant mode amplitude sqrt(a_n^2 + b_n^2)"),
+    "star_shaped": (_C, "1", "1 if the contour is star-shaped about the centroid (the fit is meaningful)"),
+    "edge_cut": (_C, "1", "1 if the mask touches the image edge (left out of the shape statistics)"),
+    "n_sides": (_C, "1", "Voronoi neighbours of the centroid (-1: Voronoi cell reaches the field-of-view edge)"),
+    "defect": (_C, "1", "1 defect (n_sides != 6), 0 not, -1 not classified (Voronoi cell reaches the edge)"),
+    "n_cells": (_T, "1", "cells in the frame"),
+    "n_edge_cut": (_T, "1", "cells cut by the image edge, left out of the shape statistics"),
+    "n_boundary": (_T, "1", "cells whose Voronoi cell reaches the field-of-view edge, neither defect nor not"),
+    "n_classified": (_T, "1", "cells classified as defect or not"),
+    "q_mean": (_T, "1", "mean shape index over the cells not cut by the image edge"),
+    "q_mean_err": (_T, "1", "standard error of q_mean over the cells of the frame"),
+    "q_frac_above": (_T, "1", f"fraction of cells with q > q* = {Q_STAR}"),
+    "rho_d": (_T, "1", "defect fraction among the classified cells (Voronoi of the centroids, open boundaries)"),
+    "n_defects": (_T, "1", "defect cells"),
+    "n_clusters": (_T, "1", "defect clusters (connected over Voronoi adjacency)"),
+    "largest_cluster_fraction": (_T, "1", "largest defect cluster / classified cells"),
+    "percolated": (_T, "1", "1 if rho_d > percolation_threshold"),
+    "spanning": (_T, "1", "1 if a defect cluster touches two opposite edges of the field of view"),
+    "psi6": (_T, "1", "global hexatic order |mean psi6_i| over the classified cells"),
+}
+
+_CELL_INT = {"label": 0, "n_sides": -1, "defect": -1}
+
+
+def _pixel_pair(pixel_size) -> tuple[float, float]:
+    px, py = (pixel_size, pixel_size) if np.ndim(pixel_size) == 0 else tuple(pixel_size)
+    px, py = float(px), float(py)
+    if not (np.isfinite(px) and np.isfinite(py) and px > 0 and py > 0):
+        raise MeasureInputError(f"pixel size must be positive, got {pixel_size!r}")
+    return px, py
+
+
+def measure(labels, pixel_size=1.0, frame_interval=1.0, *, modes: int = 6, length_unit: str = "1",
+            time_unit: str = "1", times=None, percolation_threshold: float = PERCOLATION_THRESHOLD) -> xr.Dataset:
+    """Measure a segmented image or movie of a cell monolayer.
+
+    Parameters
+    ----------
+    labels : ndarray, path, list of paths, or iterable of 2-D arrays
+        Integer label frames, 0 = background, 1..n = cells (:func:`fcsweep.measure.readers.iter_frames`):
+        a 2-D or T x Y x X array, a TIFF, PNG or Cellpose ``_seg.npy`` file or a directory of
+        them, or an iterator of frames (read one at a time).
+    pixel_size : float or (float, float)
+        Pixel width (and height) in ``length_unit``.
+    frame_interval : float
+        Time between frames in ``time_unit`` (unused when ``times`` is given).
+    modes : int
+        Highest Fourier mode M of the contour fit (>= 2).
+    length_unit, time_unit : str
+        CF / UDUNITS unit strings written into the dataset (e.g. ``"um"``, ``"min"``).
+    times : array_like, optional
+        Time stamp of each frame.
+    percolation_threshold : float
+        rho_d above which a frame is percolated.
+
+    Returns
+    -------
+    xarray.Dataset
+        The variables of :data:`VARIABLES` on dimensions ``time``, ``cell``, ``mode``.
+
+    Raises
+    ------
+    MeasureInputError
+        Input that is not a usable label image (the message says which frame and why).
+    """
+    px, py = _pixel_pair(pixel_size)
+    if int(modes) < 2:
+        raise MeasureInputError(f"modes must be >= 2, got {modes}")
+    if not (np.isfinite(frame_interval) and frame_interval > 0):
+        raise MeasureInputError(f"frame interval must be positive, got {frame_interval!r}")
+    per_cell, per_frame, shape = [], [], None
+    for _, frame in iter_frames(labels):
+        shape = frame.shape
+        cells = measure_cells(frame, (px, py), int(modes))
+        stats = frame_statistics(cells, (0.0, shape[1] * px, 0.0, shape[0] * py), percolation_threshold)
+        cells.update(n_sides=stats.pop("n_sides"), defect=stats.pop("defect"))
+        per_cell.append(cells)
+        per_frame.append(stats)
+    T = len(per_cell)
+    if times is None:
+        t = np.arange(T) * float(frame_interval)
+    else:
+        t = np.asarray(times, dtype=float)
+        if t.shape != (T,) or not np.all(np.diff(t) > 0):
+            raise MeasureInputError(f"times must be {T} increasing time stamps, got shape {t.shape}")
+    ncell = max(len(c["label"]) for c in per_cell)
+    units = {"L": length_unit, "L2": f"{length_unit}2" if length_unit != "1" else "1", "T": time_unit, "1": "1"}
+    data = {}
+    for name, (dims, unit, long_name) in VARIABLES.items():
+        if dims == _T:
+            arr = np.array([f[name] for f in per_frame], dtype=float)
+        else:
+            fill = _CELL_INT.get(name, np.nan)
+            tail = (int(modes) - 1,) if dims == _M else ()
+            arr = np.full((T, ncell) + tail, fill, dtype=np.int64 if name in _CELL_INT else float)
+            for k, c in enumerate(per_cell):
+                arr[k, :len(c["label"])] = c[name]
+        data[name] = xr.Variable(dims, arr, {"units": units[unit], "long_name": long_name})
+    ds = xr.Dataset(data, coords={
+        "time": ("time", t, {"units": time_unit, "long_name": "time of the frame"}),
+        "mode": ("mode", np.arange(2, int(modes) + 1), {"units": "1", "long_name": "Fourier mode number n"})})
+    ds.attrs.update(Conventions="CF-1.8", title="fcsweep measure: shape and defect observables of a segmented "
+                    "cell monolayer", pixel_size_x=px, pixel_size_y=py, length_unit=length_unit,
+                    time_unit=time_unit, modes=int(modes), percolation_threshold=float(percolation_threshold),
+                    image_shape=np.asarray(shape, dtype=np.int64), q_star=Q_STAR)
+    return ds
+
+
+def write_measure(ds: xr.Dataset, out_dir) -> Path:
+    """Write ``ds`` to ``out_dir/measure.nc`` through :func:`fcsweep.io.sweepdir.atomic_write`."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    return atomic_write(out_dir / OUTPUT_NAME, lambda tmp: ds.to_netcdf(tmp), suffix=".nc")
