@@ -52,7 +52,7 @@ def _load(config: str | None, output: str | None = None, *, to_run: bool = False
 
 #: Order of the commands in ``--help``: the order of the work, then the helpers.
 COMMAND_ORDER = ("validate", "bench", "simulate", "status", "analyze", "aggregate", "plot", "refine", "movie",
-                 "export", "list-runs", "compile")
+                 "export", "measure", "list-runs", "compile")
 
 
 class WorkflowGroup(click.Group):
@@ -129,6 +129,9 @@ def cli() -> None:
       fcsweep analyze CONFIG      observables of every finished run
       fcsweep aggregate CONFIG    one phase_diagram.nc
       fcsweep plot CONFIG         figures; `fcsweep movie RUN CONFIG` for a movie
+
+    \b
+    Experiments: fcsweep measure IMAGES  the same observables from segmented images
     """
 
 
@@ -634,6 +637,43 @@ def export(run, config, output, fmt, frames, out_path, unwrapped, polygons, imag
         sys.exit(2)
     except TrajectoryError as exc:
         _nothing(str(exc))
+    click.echo(str(path))
+
+
+@cli.command()
+@click.argument("images", nargs=-1, required=True, type=click.Path())
+@click.option("--output", "-o", type=click.Path(file_okay=False), default="fcsweep-measure", show_default=True,
+              help="Output directory (measure.nc).")
+@click.option("--pixel-size", default="1", show_default=True, help="Pixel size X or X,Y in --length-unit.")
+@click.option("--frame-interval", type=click.FloatRange(min=0, min_open=True), default=1.0, show_default=True,
+              help="Time between frames in --time-unit.")
+@click.option("--times", default=None, help="Comma-separated time stamps of the frames (instead of --frame-interval).")
+@click.option("--length-unit", default="1", show_default=True, help="CF/UDUNITS length unit, e.g. um.")
+@click.option("--time-unit", default="1", show_default=True, help="CF/UDUNITS time unit, e.g. min.")
+@click.option("--modes", type=click.IntRange(min=2, max=16), default=6, show_default=True,
+              help="Highest Fourier mode M of the contour fit.")
+@click.option("--percolation-threshold", type=click.FloatRange(0, 1), default=0.5, show_default=True,
+              help="rho_d above which a frame is percolated.")
+def measure(images, output, pixel_size, frame_interval, times, length_unit, time_unit, modes, percolation_threshold):
+    """Shape index, Voronoi defects, their clusters and hexatic order of segmented cell images.
+
+    IMAGES: integer label images (0 = background, 1..n = cells): a TIFF (2-D or T x Y x X),
+    PNG files, Cellpose _seg.npy files, or directories of them (frames sorted by name).
+    Writes OUTPUT/measure.nc (docs/measure.md).  TIFF needs the `measure` extra:
+    pip install 'fcsweep[measure]'.
+    """
+    from fcsweep.io.failures import results_command
+    from fcsweep.measure.command import measure_to_dir
+    from fcsweep.measure.readers import MeasureInputError
+
+    try:
+        with results_command(_say, "--output"):
+            path = measure_to_dir(images, output, pixel_size=pixel_size, frame_interval=frame_interval,
+                                  length_unit=length_unit, time_unit=time_unit, times=times, modes=modes,
+                                  percolation_threshold=percolation_threshold)
+    except (ImportError, MeasureInputError) as exc:
+        _say(str(exc))
+        sys.exit(2)
     click.echo(str(path))
 
 

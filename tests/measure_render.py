@@ -14,19 +14,23 @@ from fcsweep.analysis.shapes import shape_indices
 from fcsweep.model.shape import bounding_radius, project_admissible
 
 
-def jittered_cells(n_side, rng, *, spacing=2.6, jitter=0.45, amp=0.08, modes=6):
-    """Non-overlapping model cells (R0 = 1): pos (N, 2), theta (N,), a, b (N, M-1)."""
+def jittered_cells(n_side, rng, *, spacing=2.6, step=0.3, sweeps=0, amp=0.08, modes=6):
+    """Non-overlapping model cells (R0 = 1): pos (N, 2), theta (N,), a, b (N, M-1).
+
+    A triangular lattice of ``spacing``, then ``sweeps`` Monte Carlo sweeps of moves of
+    ``step`` times the spacing that keep the cells' bounding discs apart: a hard-disc crystal
+    or fluid, depending on the spacing, with generic (non-degenerate) Voronoi vertices.
+    """
     xs, ys = np.meshgrid(np.arange(n_side), np.arange(n_side))
-    base = np.stack([(xs + 0.5 * (ys % 2)).ravel() * spacing, ys.ravel() * spacing * np.sqrt(3) / 2], 1)
-    N = base.shape[0]
+    pos = np.stack([(xs + 0.5 * (ys % 2)).ravel() * spacing, ys.ravel() * spacing * np.sqrt(3) / 2], 1)
+    N = pos.shape[0]
     a = rng.normal(0, amp, (N, modes - 1)) / np.arange(2, modes + 1) ** 0.5
     b = rng.normal(0, amp, (N, modes - 1)) / np.arange(2, modes + 1) ** 0.5
     a, b = project_admissible(a, b)[:2]
     rmax = bounding_radius(a, b)
-    pos = base.copy()
-    for _ in range(200):
-        k = rng.integers(N)
-        trial = base[k] + rng.normal(0, jitter * spacing, 2)
+    pos = pos + rng.uniform(-0.02, 0.02, pos.shape)
+    for k in rng.integers(N, size=sweeps * N):
+        trial = pos[k] + rng.uniform(-step, step, 2) * spacing
         d = np.hypot(*(pos - trial).T)
         d[k] = np.inf
         if np.all(d > rmax + rmax[k] + 0.05):

@@ -1,11 +1,14 @@
 """Voronoi neighbours of points in a non-periodic field of view (open boundaries).
 
 An image, or a confined simulation, is not periodic: the Voronoi cell of a point near the
-edge of the field of view is cut by the edge or unbounded, and its number of sides says
-nothing about the neighbourhood.  The rule (docs/measure.md): a cell whose Voronoi region
-is unbounded or has a vertex outside the field of view is a *boundary* cell, neither
-defect nor non-defect; only the other (*interior*) cells are classified.  Boundary cells
-stay in the neighbour graph: they are the neighbours of interior cells.
+edge of the field of view can be changed by cells outside it, which are not seen.  A
+Voronoi vertex ``v`` of cell ``i`` is the centre of a circle through ``i`` and two
+neighbours with no point inside; a point outside the field of view changes the vertex only
+if it falls inside that circle.  So the rule (docs/measure.md): a cell is *interior*, its
+number of sides certain whatever lies outside, when its region is bounded and the circle of
+every one of its vertices lies inside the field of view; otherwise it *reaches the edge*
+and is a boundary cell, neither defect nor non-defect.  Boundary cells stay in the
+neighbour graph: they are the neighbours of interior cells.
 
 The tessellation is ``scipy.spatial.Voronoi`` (Qhull).
 """
@@ -34,10 +37,10 @@ class OpenVoronoi:
     n_sides : ndarray of int, shape (N,)
         Voronoi neighbours of each point (meaningful for interior points only).
     interior : ndarray of bool, shape (N,)
-        Region bounded and inside the field of view.
+        Region bounded and the empty circle of each of its vertices inside the field of view.
     reaches : ndarray of bool, shape (N, 4)
-        Region reaches the left, right, bottom, top edge (:data:`EDGES`): has a vertex
-        beyond it, or is unbounded in that direction.
+        Region reaches the left, right, bottom, top edge (:data:`EDGES`): the circle of one
+        of its vertices crosses it, or the region is unbounded towards it.
     """
 
     i: np.ndarray
@@ -86,8 +89,9 @@ def open_voronoi(points: np.ndarray, bounds) -> OpenVoronoi:
         idx = np.asarray([v for v in region if v >= 0], dtype=np.int64)
         if idx.size:
             v = verts[idx]
-            reaches[k] |= np.array([(v[:, 0] < x0).any(), (v[:, 0] > x1).any(),
-                                    (v[:, 1] < y0).any(), (v[:, 1] > y1).any()])
+            r = np.hypot(v[:, 0] - pts[k, 0], v[:, 1] - pts[k, 1])
+            reaches[k] |= np.array([(v[:, 0] - r < x0).any(), (v[:, 0] + r > x1).any(),
+                                    (v[:, 1] - r < y0).any(), (v[:, 1] + r > y1).any()])
         if -1 in region or not region:
             # unbounded: it opens away from the cloud of points, towards the nearest edges
             d = pts[k] - centre

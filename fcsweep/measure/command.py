@@ -1,0 +1,52 @@
+"""The work of ``fcsweep measure``: parse the unit options, measure, write ``OUT/measure.nc``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from fcsweep.measure.dataset import measure, write_measure
+from fcsweep.measure.readers import MeasureInputError
+
+__all__ = ["parse_pixel_size", "parse_times", "measure_to_dir"]
+
+
+def parse_pixel_size(text: str) -> tuple[float, float]:
+    """``"X"`` or ``"X,Y"`` as (px, py); :class:`MeasureInputError` otherwise."""
+    try:
+        parts = [float(p) for p in str(text).split(",")]
+    except ValueError:
+        parts = []
+    if len(parts) not in (1, 2) or not all(p > 0 and p < float("inf") for p in parts):
+        raise MeasureInputError(f"--pixel-size must be X or X,Y with positive numbers, got {text!r}")
+    return (parts[0], parts[-1])
+
+
+def parse_times(text: str | None):
+    """Comma-separated time stamps, or None."""
+    if not text:
+        return None
+    try:
+        return [float(t) for t in text.split(",")]
+    except ValueError:
+        raise MeasureInputError(f"--times must be comma-separated numbers, got {text!r}") from None
+
+
+def measure_to_dir(images, out, *, pixel_size: str = "1", frame_interval: float = 1.0, length_unit: str = "1",
+                   time_unit: str = "1", times: str | None = None, modes: int = 6,
+                   percolation_threshold: float = 0.5) -> Path:
+    """Measure ``images`` (paths) and write ``out/measure.nc``.
+
+    Raises
+    ------
+    MeasureInputError
+        Unusable input or options.
+    ImportError
+        A reader of the ``measure`` extra is missing.
+    fcsweep.io.failures.WriteFailure
+        The file could not be written.
+    """
+    ds = measure(list(images), parse_pixel_size(pixel_size), frame_interval, modes=modes,
+                 length_unit=length_unit, time_unit=time_unit, times=parse_times(times),
+                 percolation_threshold=percolation_threshold)
+    ds.attrs["source"] = " ".join(str(p) for p in images)
+    return write_measure(ds, out)

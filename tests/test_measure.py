@@ -1,0 +1,210 @@
+"""`fcsweep measure`: label images of model cells give back the cells' own q and rho_d;
+every reader gives the same dataset; broken input is refused with exit 2."""
+
+from __future__ import annotations
+
+import pickle
+
+import numpy as np
+import pytest
+import xarray as xr
+from click.testing import CliRunner
+from measure_render import exact_q, jittered_cells, render
+from PIL import Image
+
+import fcsweep
+from fcsweep.analysis.export import cell_contours
+from fcsweep.analysis.voronoi_open import open_voronoi
+from fcsweep.cli import cli
+from fcsweep.measure import MeasureInputError, measure, read_seg_npy
+from fcsweep.measure import readers as measure_readers
+
+
+def _centroids(pos, theta, a, b):
+    """Exact area centroids of the model contours (polygons of 400 points)."""
+    c = cell_contours(pos, theta, a, b, points=400)
+    x, y = c[..., 0], c[..., 1]
+    x1, y1 = np.roll(x, -1, 1), np.roll(y, -1, 1)
+    cr = x * y1 - x1 * y
+    A = cr.sum(1) / 2
+    return np.stack([((x + x1) * cr).sum(1) / (6 * A), ((y + y1) * cr).sum(1) / (6 * A)], 1)
+
+
+def _scene(n_side, seed, spacing, sweeps, step=0.3):
+    pos, theta, a, b = jittered_cells(n_side, np.random.default_rng(seed), spacing=spacing, sweeps=sweeps,
+                                      step=step)
+    fov = (1.0, pos[:, 0].max() - 1.0, 0.5, pos[:, 1].max() - 0.5)  # cuts the outer cells
+    return pos, theta, a, b, fov
+
+
+def _exact_rho_d(ds, pos, theta, a, b, fov):
+    """rho_d of the same cells on the same open-boundary rule, from their exact centroids
+    (cells cut by the image edge keep the centroid of their visible part, which is all an
+    image has of them)."""
+    lab = ds.label.values
+    ok = lab > 0
+    ref = np.stack([ds.x.values[ok], ds.y.values[ok]], 1)
+    whole = ds.edge_cut.values[ok] == 0
+    ref[whole] = (_centroids(pos, theta, a, b) - [fov[0], fov[2]])[lab[ok][whole] - 1]
+    v = open_voronoi(ref, (0.0, fov[1] - fov[0], 0.0, fov[3] - fov[2]))
+    return ((v.n_sides != 6) & v.interior).sum() / v.interior.sum()
+
+
+@pytest.mark.parametrize("res", [5, 10, 20])
+def test_q_and_rho_d_of_rendered_model_cells(res):
+    """Model cells (modes 2..6) rasterised at 5 / 10 / 20 px per R0: the M = 6 fit gives the
+    model's <q> within 1 % (measured 0.3 / 0.2 / 0.0 %; the marching-squares contour is
+    ~5 % high at every resolution), and rho_d within 0.02 of the exact centroids' (measured
+    <= 0.01 at 5 px, 0 at 10 and 20 px over ~310 classified cells)."""
+    pos, theta, a, b, fov = _scene(20, 1, 3.0, 20)
+    ds = measure(render(pos, theta, a, b, res, fov), 1.0 / res).isel(time=0)
+    whole = (ds.label.values > 0) & (ds.edge_cut.values == 0)
+    q_exact = exact_q(a, b)[ds.label.values[whole] - 1].mean()
+    assert ds.q_mean.item() == pytest.approx(q_exact, rel=0.01)
+    q_contour = (ds.perimeter_contour / np.sqrt(ds.area)).values[whole].mean()
+    assert q_contour > 1.03 * q_exact  # the bias the fit removes
+    assert ds.n_classified.item() > 250
+    assert abs(ds.rho_d.item() - _exact_rho_d(ds, pos, theta, a, b, fov)) <= 0.02
+    assert ds.n_edge_cut.item() > 0 and ds.n_boundary.item() > ds.n_edge_cut.item() / 2
+    # rotation-invariant amplitudes compare with the model's body-frame modes
+    c_model = np.hypot(a, b)[ds.label.values[whole] - 1]
+    err = np.abs(ds.c_abs.values[whole] - c_model)
+    assert np.sqrt(np.mean(err ** 2)) < 0.1 / res
+
+
+@pytest.mark.parametrize("spacing, sweeps, percolated", [(2.6, 0, 0.0), (3.0, 20, 0.0), (6.0, 30, 1.0)])
+def test_percolation_label_at_clear_points(spacing, sweeps, percolated):
+    """A crystal (rho_d 0), a dense hard-disc fluid (~0.1) and a dilute one (~0.65): the
+    percolated label is the exact centroids' answer, far from the threshold 1/2."""
+    pos, theta, a, b, fov = _scene(14, 0, spacing, sweeps, step=1.0)
+    ds = measure(render(pos, theta, a, b, 10, fov), 0.1).isel(time=0)
+    exact = _exact_rho_d(ds, pos, theta, a, b, fov)
+    assert abs(exact - 0.5) > 0.08
+    assert ds.percolated.item() == percolated == float(exact > 0.5)
+    if percolated:
+        assert ds.spanning.item() == 1.0 and ds.largest_cluster_fraction.item() > 0.3
+    else:
+        assert ds.psi6.item() > (0.9 if sweeps == 0 else 0.0)
+
+
+def test_open_voronoi_of_a_lattice_has_no_interior_defect():
+    """A triangular lattice in a rectangle: every interior cell has 6 Voronoi sides, the
+    outer ring is boundary."""
+    xs, ys = np.meshgrid(np.arange(12), np.arange(12))
+    pts = np.stack([(xs + 0.5 * (ys % 2)).ravel(), ys.ravel() * np.sqrt(3) / 2], 1) + 0.7
+    v = open_voronoi(pts, (0.0, 12.7, 0.0, 11 * np.sqrt(3) / 2 + 1.4))
+    assert v.interior.sum() >= 80
+    assert np.all(v.n_sides[v.interior] == 6)
+    assert not v.interior[np.argmin(pts[:, 0])]
+
+
+def test_open_voronoi_interior_cells_agree_with_the_periodic_tessellation():
+    """Random points in a periodic box: an interior cell's sides are those of the periodic
+    Voronoi (freud), since no point outside can change them."""
+    from fcsweep.analysis.voronoi import voronoi_neighbors
+
+    rng = np.random.default_rng(5)
+    pts = rng.uniform(0, 20, (400, 2))
+    v = open_voronoi(pts, (0.0, 20.0, 0.0, 20.0))
+    periodic = voronoi_neighbors(pts, (20.0, 20.0)).n_sides
+    assert v.interior.sum() > 250
+    np.testing.assert_array_equal(v.n_sides[v.interior], periodic[v.interior])
+
+
+@pytest.fixture(scope="module")
+def stack():
+    pos, theta, a, b, fov = _scene(8, 3, 3.0, 10)
+    frames = [render(pos, theta, a, b, 6, fov)]
+    pos2 = pos + 0.1
+    frames.append(render(pos2, theta, a, b, 6, fov))
+    return np.stack(frames).astype(np.uint16)
+
+
+def _same(ds1, ds2):
+    xr.testing.assert_identical(ds1.drop_attrs() if hasattr(ds1, "drop_attrs") else ds1,
+                                ds2.drop_attrs() if hasattr(ds2, "drop_attrs") else ds2)
+
+
+def test_readers_give_the_same_dataset(stack, tmp_path):
+    """TIFF stack, PNG sequence (directory), Cellpose _seg.npy files and an iterator of frames."""
+    tifffile = pytest.importorskip("tifffile")
+    tifffile.imwrite(tmp_path / "s.tif", stack)
+    (tmp_path / "png").mkdir()
+    (tmp_path / "seg").mkdir()
+    for k, fr in enumerate(stack):
+        Image.fromarray(fr).save(tmp_path / "png" / f"f{k:03d}.png")
+        np.save(tmp_path / "seg" / f"f{k:03d}_seg.npy",
+                {"masks": fr, "outlines": np.zeros_like(fr), "filename": f"f{k}.tif", "chan_choose": [0, 0],
+                 "diameter": 30.0}, allow_pickle=True)
+    ref = measure(stack, 0.5, 2.0, length_unit="um", time_unit="min")
+    for src in (tmp_path / "s.tif", tmp_path / "png", tmp_path / "seg", iter(list(stack))):
+        _same(ref, fcsweep.measure(src, pixel_size=0.5, frame_interval=2.0, length_unit="um", time_unit="min"))
+    assert ref.x.attrs["units"] == "um" and ref.area.attrs["units"] == "um2"
+    assert ref.time.attrs["units"] == "min" and list(ref.time.values) == [0.0, 2.0]
+    out = tmp_path / "out"
+    r = CliRunner().invoke(cli, ["measure", str(tmp_path / "seg"), "-o", str(out), "--pixel-size", "0.5",
+                                 "--frame-interval", "2", "--length-unit", "um", "--time-unit", "min"])
+    assert r.exit_code == 0, r.output
+    with xr.open_dataset(out / "measure.nc") as disk:
+        _same(ref, disk.load())
+
+
+def test_seg_npy_loader_refuses_code(tmp_path):
+    """A _seg.npy whose pickle names any callable but numpy's array builders is refused, unrun."""
+    marker = tmp_path / "ran"
+
+    class Evil:
+        def __reduce__(self):
+            return (open, (str(marker), "w"))
+
+    path = tmp_path / "evil_seg.npy"
+    with open(path, "wb") as fh:
+        np.lib.format.write_array_header_1_0(fh, {"descr": "|O", "fortran_order": False, "shape": ()})
+        pickle.dump(np.array({"masks": Evil()}, dtype=object), fh, protocol=3)
+    with pytest.raises(MeasureInputError, match="refused"):
+        read_seg_npy(path)
+    assert not marker.exists()
+
+
+def _broken(tmp_path, monkeypatch):
+    tifffile = pytest.importorskip("tifffile")
+    good = np.zeros((20, 20), np.uint16)
+    good[5:12, 5:12] = 1
+    tifffile.imwrite(tmp_path / "float.tif", good.astype(np.float32))
+    tifffile.imwrite(tmp_path / "empty.tif", np.zeros((2, 20, 20), np.uint16))
+    tifffile.imwrite(tmp_path / "negative.tif", np.where(good > 0, -3, 0).astype(np.int16))
+    (tmp_path / "shapes").mkdir()
+    Image.fromarray(good).save(tmp_path / "shapes" / "a.png")
+    Image.fromarray(good[:15]).save(tmp_path / "shapes" / "b.png")
+    np.save(tmp_path / "frac_seg.npy", {"masks": good * 1.5}, allow_pickle=True)
+    tifffile.imwrite(tmp_path / "big.tif", good)
+    return {"float.tif": "float32", "empty.tif": "empty mask", "negative.tif": "negative label",
+            "shapes": "differs from the first", "frac_seg.npy": "integers", "big.tif": "GiB"}
+
+
+def test_broken_input_exits_2_with_one_line(tmp_path, monkeypatch):
+    cases = _broken(tmp_path, monkeypatch)
+    for name, words in cases.items():
+        if name == "big.tif":
+            monkeypatch.setattr(measure_readers, "available_memory", lambda: 1000)
+        r = CliRunner().invoke(cli, ["measure", str(tmp_path / name), "-o", str(tmp_path / "o")])
+        assert r.exit_code == 2, (name, r.output)
+        assert words in r.output and "Traceback" not in r.output, (name, r.output)
+    assert not (tmp_path / "o" / "measure.nc").exists()
+
+
+def test_missing_extra_is_named(tmp_path, monkeypatch):
+    """Without tifffile a TIFF is refused with the extra to install."""
+    import builtins
+
+    real = builtins.__import__
+
+    def no_tifffile(name, *args, **kwargs):
+        if name == "tifffile":
+            raise ImportError("No module named 'tifffile'")
+        return real(name, *args, **kwargs)
+
+    (tmp_path / "x.tif").write_bytes(b"II*\x00")
+    monkeypatch.setattr(builtins, "__import__", no_tifffile)
+    r = CliRunner().invoke(cli, ["measure", str(tmp_path / "x.tif"), "-o", str(tmp_path / "o")])
+    assert r.exit_code == 2 and "fcsweep[measure]" in r.output
