@@ -128,7 +128,9 @@ def _same(ds1, ds2):
 def test_readers_give_the_same_dataset(stack, tmp_path):
     """TIFF stack, PNG sequence (directory), Cellpose _seg.npy files and an iterator of frames."""
     tifffile = pytest.importorskip("tifffile")
-    tifffile.imwrite(tmp_path / "s.tif", stack)
+    tifffile.imwrite(tmp_path / "s.tif", stack)  # contiguous: memory-mapped
+    tifffile.imwrite(tmp_path / "z.tif", stack, compression="zlib")  # compressed: page by page
+    tifffile.imwrite(tmp_path / "ij.tif", stack, imagej=True)
     (tmp_path / "png").mkdir()
     (tmp_path / "seg").mkdir()
     for k, fr in enumerate(stack):
@@ -137,7 +139,7 @@ def test_readers_give_the_same_dataset(stack, tmp_path):
                 {"masks": fr, "outlines": np.zeros_like(fr), "filename": f"f{k}.tif", "chan_choose": [0, 0],
                  "diameter": 30.0}, allow_pickle=True)
     ref = measure(stack, 0.5, 2.0, length_unit="um", time_unit="min")
-    for src in (tmp_path / "s.tif", tmp_path / "png", tmp_path / "seg", iter(list(stack))):
+    for src in (tmp_path / "s.tif", tmp_path / "z.tif", tmp_path / "ij.tif", tmp_path / "png", tmp_path / "seg", iter(list(stack))):
         _same(ref, fcsweep.measure(src, pixel_size=0.5, frame_interval=2.0, length_unit="um", time_unit="min"))
     assert ref.x.attrs["units"] == "um" and ref.area.attrs["units"] == "um2"
     assert ref.time.attrs["units"] == "min" and list(ref.time.values) == [0.0, 2.0]

@@ -155,19 +155,32 @@ def _frames_of_array(arr: np.ndarray, where: str):
 
 
 def _frames_of_tiff(path: Path):
+    """Frames of a TIFF's first series, one at a time: memory-mapped when the series is stored
+    contiguous and uncompressed, else page by page."""
     tifffile = _need("tifffile")
     with tifffile.TiffFile(path) as tif:
         series = tif.series[0]
         shape = tuple(series.shape)
+        if len(shape) not in (2, 3):
+            raise MeasureInputError(f"{path}: expected a 2-D frame or a T x Y x X stack, got shape {shape}")
+        _check_size(shape[-2:], str(path))
         if len(shape) == 2:
-            _check_size(shape, str(path))
             yield str(path), series.asarray()
             return
-        if len(shape) != 3:
-            raise MeasureInputError(f"{path}: expected a 2-D frame or a T x Y x X stack, got shape {shape}")
-        _check_size(shape[1:], str(path))
-        for k in range(shape[0]):
-            yield f"{path} frame {k}", tif.asarray(key=k, series=0)
+        if series.dataoffset is not None:
+            dtype = np.dtype(series.dtype).newbyteorder(tif.byteorder)
+            stack = np.memmap(path, dtype=dtype, mode="r", offset=series.dataoffset, shape=shape)
+            for k in range(shape[0]):
+                yield f"{path} frame {k}", np.array(stack[k])
+            del stack
+        elif len(series.pages) == shape[0]:
+            for k, page in enumerate(series.pages):
+                yield f"{path} frame {k}", page.asarray()
+        else:
+            _check_size((shape[0] * shape[1], shape[2]), str(path))
+            stack = series.asarray()
+            for k in range(shape[0]):
+                yield f"{path} frame {k}", stack[k]
 
 
 def _frames_of_png(path: Path):
