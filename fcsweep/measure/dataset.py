@@ -1,10 +1,10 @@
 """``measure(labels, ...)``: a segmented movie in, an xarray.Dataset of the simulation's
 observables out; ``write_measure`` stores it as ``OUT/measure.nc``.
 
-Dimensions ``time`` (frames, in the user's time unit), ``cell`` (the cells of a frame in
-the order of their labels; NaN / fill where a frame has fewer cells; cells are not tracked
-across frames, so a cell index names different cells in different frames) and ``mode``
-(n = 2..M).  Every variable carries its CF ``units`` and ``long_name`` (:data:`VARIABLES`).
+Dimensions ``time`` (frames, in the user's time unit), ``cell`` (a track: a cell linked
+across frames by the overlap of its masks keeps its index, NaN / fill where it is absent;
+:mod:`fcsweep.measure.tracking`; with ``track=False`` the cells of each frame in the order of
+their labels), ``mode`` (n = 2..M) and ``lag`` (of the MSD).  Every variable carries its CF ``units`` and ``long_name`` (:data:`VARIABLES`).
 """
 
 from __future__ import annotations
@@ -18,6 +18,7 @@ from fcsweep.io.sweepdir import atomic_write
 from fcsweep.measure.cells import measure_cells
 from fcsweep.measure.frames import PERCOLATION_THRESHOLD, frame_statistics
 from fcsweep.measure.readers import MeasureInputError, iter_frames
+from fcsweep.measure.tracking import link_frames, tracked_msd
 from fcsweep.model.shape import Q_STAR
 
 __all__ = ["measure", "write_measure", "VARIABLES", "OUTPUT_NAME"]
@@ -58,6 +59,9 @@ VARIABLES = {
     "percolated": (_T, "1", "1 if rho_d > percolation_threshold"),
     "spanning": (_T, "1", "1 if a defect cluster touches two opposite edges of the field of view"),
     "psi6": (_T, "1", "global hexatic order |mean psi6_i| over the classified cells"),
+    "msd": (("lag",), "L2", "drift-subtracted mean squared displacement of the cells tracked, uncut, through every frame "
+                            "(NaN for unequally spaced frames)"),
+    "n_tracked": ((), "1", "cells tracked, not cut by the image edge, through every frame (those of the msd)"),
 }
 
 _CELL_INT = {"label": 0, "n_sides": -1, "defect": -1}
@@ -72,7 +76,8 @@ def _pixel_pair(pixel_size) -> tuple[float, float]:
 
 
 def measure(labels, pixel_size=1.0, frame_interval=1.0, *, modes: int = 6, length_unit: str = "1",
-            time_unit: str = "1", times=None, percolation_threshold: float = PERCOLATION_THRESHOLD) -> xr.Dataset:
+            time_unit: str = "1", times=None, percolation_threshold: float = PERCOLATION_THRESHOLD,
+            track: bool = True) -> xr.Dataset:
     """Measure a segmented image or movie of a cell monolayer.
 
     Parameters
@@ -93,6 +98,9 @@ def measure(labels, pixel_size=1.0, frame_interval=1.0, *, modes: int = 6, lengt
         Time stamp of each frame.
     percolation_threshold : float
         rho_d above which a frame is percolated.
+    track : bool
+        Link cells across frames by mask overlap (:mod:`fcsweep.measure.tracking`): the
+        ``cell`` index is then a track.  The MSD needs it.
 
     Returns
     -------
@@ -110,9 +118,16 @@ def measure(labels, pixel_size=1.0, frame_interval=1.0, *, modes: int = 6, lengt
     if not (np.isfinite(frame_interval) and frame_interval > 0):
         raise MeasureInputError(f"frame interval must be positive, got {frame_interval!r}")
     per_cell, per_frame, shape = [], [], None
+    prev, prev_tracks, next_id = None, {}, 0
     for _, frame in iter_frames(labels):
         shape = frame.shape
         cells = measure_cells(frame, (px, py), int(modes))
+        if track:
+            cells["index"], next_id = link_frames(prev, prev_tracks, frame, cells["label"], next_id)
+            prev, prev_tracks = frame, dict(zip(cells["label"].tolist(), cells["index"].tolist()))
+        else:
+            cells["index"] = np.arange(len(cells["label"]))
+            next_id = max(next_id, len(cells["label"]))
         stats = frame_statistics(cells, (0.0, shape[1] * px, 0.0, shape[0] * py), percolation_threshold)
         cells.update(n_sides=stats.pop("n_sides"), defect=stats.pop("defect"))
         per_cell.append(cells)
@@ -124,10 +139,12 @@ def measure(labels, pixel_size=1.0, frame_interval=1.0, *, modes: int = 6, lengt
         t = np.asarray(times, dtype=float)
         if t.shape != (T,) or not np.all(np.diff(t) > 0):
             raise MeasureInputError(f"times must be {T} increasing time stamps, got shape {t.shape}")
-    ncell = max(len(c["label"]) for c in per_cell)
+    ncell = next_id
     units = {"L": length_unit, "L2": f"{length_unit}2" if length_unit != "1" else "1", "T": time_unit, "1": "1"}
     data = {}
     for name, (dims, unit, long_name) in VARIABLES.items():
+        if name in ("msd", "n_tracked"):
+            continue
         if dims == _T:
             arr = np.array([f[name] for f in per_frame], dtype=float)
         else:
@@ -135,11 +152,23 @@ def measure(labels, pixel_size=1.0, frame_interval=1.0, *, modes: int = 6, lengt
             tail = (int(modes) - 1,) if dims == _M else ()
             arr = np.full((T, ncell) + tail, fill, dtype=np.int64 if name in _CELL_INT else float)
             for k, c in enumerate(per_cell):
-                arr[k, :len(c["label"])] = c[name]
+                arr[k, c["index"]] = c[name]
         data[name] = xr.Variable(dims, arr, {"units": units[unit], "long_name": long_name})
+    dt = np.diff(t)
+    even = T < 2 or np.allclose(dt, dt[0], rtol=1e-6)
+    # the MSD's window average needs equally spaced frames
+    cut = data["edge_cut"].values == 1  # a cut cell's centroid moves with the cut
+    msd, n_tracked = tracked_msd(np.where(cut, np.nan, data["x"].values), np.where(cut, np.nan, data["y"].values)) \
+        if track else (np.full(T, np.nan), 0)
+    if not even:
+        msd = np.full(T, np.nan)
+    for name, value in (("msd", msd), ("n_tracked", np.int64(n_tracked))):
+        dims, unit, long_name = VARIABLES[name]
+        data[name] = xr.Variable(dims, value, {"units": units[unit], "long_name": long_name})
     ds = xr.Dataset(data, coords={
         "time": ("time", t, {"units": time_unit, "long_name": "time of the frame"}),
-        "mode": ("mode", np.arange(2, int(modes) + 1), {"units": "1", "long_name": "Fourier mode number n"})})
+        "mode": ("mode", np.arange(2, int(modes) + 1), {"units": "1", "long_name": "Fourier mode number n"}),
+        "lag_time": ("lag", np.arange(T) * (dt[0] if T > 1 else 0.0), {"units": time_unit, "long_name": "lag time of the msd"})})
     ds.attrs.update(Conventions="CF-1.8", title="fcsweep measure: shape and defect observables of a segmented "
                     "cell monolayer", pixel_size_x=px, pixel_size_y=py, length_unit=length_unit,
                     time_unit=time_unit, modes=int(modes), percolation_threshold=float(percolation_threshold),

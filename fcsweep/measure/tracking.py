@@ -1,0 +1,93 @@
+"""Linking cells across frames by the overlap of their masks, and the MSD of the tracks.
+
+Two masks in successive frames are the same cell when each is the other's partner of
+largest overlap and the overlap covers more than :data:`MIN_OVERLAP` of the smaller mask.
+This holds while cells move less than about half their radius between frames, the usual
+case of time-lapse movies of monolayers; a cell that is not linked starts a new track
+(division, a cell entering the field of view, a jump).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from fcsweep.analysis.msd import msd_curve
+
+__all__ = ["link_frames", "tracked_msd", "MIN_OVERLAP"]
+
+#: Overlap, as a fraction of the smaller of two masks, above which they may be one cell.
+MIN_OVERLAP = 0.5
+
+
+def link_frames(prev: np.ndarray, prev_tracks: dict, frame: np.ndarray, labels: np.ndarray,
+                next_id: int) -> tuple[np.ndarray, int]:
+    """Track ids of the cells ``labels`` of ``frame``, continuing those of ``prev``.
+
+    Parameters
+    ----------
+    prev : ndarray of int, shape (Y, X) or None
+        The previous label frame (None for the first frame).
+    prev_tracks : dict
+        Label of ``prev`` -> track id.
+    frame : ndarray of int, shape (Y, X)
+    labels : ndarray of int
+        The labels of ``frame`` to give ids, in order.
+    next_id : int
+        First id free for new tracks.
+
+    Returns
+    -------
+    ids : ndarray of int, shape (len(labels),)
+    next_id : int
+        The next free id.
+    """
+    ids = np.full(len(labels), -1, dtype=np.int64)
+    if prev is not None:
+        both = (prev > 0) & (frame > 0)
+        p, c = prev[both], frame[both]
+        base = int(frame.max()) + 1
+        pairs, overlap = np.unique(p * base + c, return_counts=True)
+        pl, cl = pairs // base, pairs % base
+        area_p = np.bincount(prev.ravel())
+        area_c = np.bincount(frame.ravel())
+        ok = overlap > MIN_OVERLAP * np.minimum(area_p[pl], area_c[cl])
+        pl, cl, overlap = pl[ok], cl[ok], overlap[ok]
+        order = np.argsort(-overlap, kind="stable")
+        used_p, used_c = set(), {}
+        for k in order:
+            if pl[k] in used_p or cl[k] in used_c:
+                continue
+            used_p.add(pl[k])
+            used_c[cl[k]] = prev_tracks.get(int(pl[k]), -1)
+        pos = {int(lab): i for i, lab in enumerate(labels)}
+        for lab, tid in used_c.items():
+            if int(lab) in pos and tid >= 0:
+                ids[pos[int(lab)]] = tid
+    for i in np.flatnonzero(ids < 0):
+        ids[i] = next_id
+        next_id += 1
+    return ids, next_id
+
+
+def tracked_msd(x: np.ndarray, y: np.ndarray):
+    """Drift-subtracted MSD of the tracks present in every frame.
+
+    Parameters
+    ----------
+    x, y : ndarray, shape (T, n_tracks)
+        Centroids, NaN where a track is absent.
+
+    Returns
+    -------
+    msd : ndarray, shape (T,)
+        At lag ``m`` frames (:func:`fcsweep.analysis.msd.msd_curve`); NaN without such a track
+        or with one frame.
+    n : int
+        Tracks used.
+    """
+    full = np.all(np.isfinite(x), axis=0) & np.all(np.isfinite(y), axis=0)
+    T, n = x.shape[0], int(full.sum())
+    if T < 2 or n == 0:
+        return np.full(T, np.nan), n
+    msd, _ = msd_curve(np.stack([x[:, full], y[:, full]], axis=-1))
+    return msd, n
