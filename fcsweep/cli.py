@@ -644,12 +644,12 @@ def export(run, config, output, fmt, frames, out_path, unwrapped, polygons, imag
 @click.argument("images", nargs=-1, required=True, type=click.Path())
 @click.option("--output", "-o", type=click.Path(file_okay=False), default="fcsweep-measure", show_default=True,
               help="Output directory (measure.nc).")
-@click.option("--pixel-size", default="1", show_default=True, help="Pixel size X or X,Y in --length-unit.")
-@click.option("--frame-interval", type=click.FloatRange(min=0, min_open=True), default=1.0, show_default=True,
-              help="Time between frames in --time-unit.")
+@click.option("--pixel-size", default=None, help="Pixel size X or X,Y in --length-unit [TIFF metadata, else 1].")
+@click.option("--frame-interval", type=click.FloatRange(min=0, min_open=True), default=None,
+              help="Time between frames in --time-unit [TIFF metadata, else 1].")
 @click.option("--times", default=None, help="Comma-separated time stamps of the frames (instead of --frame-interval).")
-@click.option("--length-unit", default="1", show_default=True, help="CF/UDUNITS length unit, e.g. um.")
-@click.option("--time-unit", default="1", show_default=True, help="CF/UDUNITS time unit, e.g. min.")
+@click.option("--length-unit", default=None, help="CF/UDUNITS length unit, e.g. um [TIFF metadata, else 1].")
+@click.option("--time-unit", default=None, help="CF/UDUNITS time unit, e.g. min [TIFF metadata, else 1].")
 @click.option("--modes", type=click.IntRange(min=2, max=16), default=6, show_default=True,
               help="Highest Fourier mode M of the contour fit.")
 @click.option("--percolation-threshold", type=click.FloatRange(0, 1), default=0.5, show_default=True,
@@ -659,7 +659,9 @@ def measure(images, output, pixel_size, frame_interval, times, length_unit, time
 
     IMAGES: integer label images (0 = background, 1..n = cells): a TIFF (2-D or T x Y x X),
     PNG files, Cellpose _seg.npy files, or directories of them (frames sorted by name).
-    Writes OUTPUT/measure.nc (docs/measure.md).  TIFF needs the `measure` extra:
+    Pixel size, frame interval and units come from the options or from OME / ImageJ
+    metadata; where both exist they must agree.  Writes OUTPUT/measure.nc
+    (docs/measure.md).  TIFF needs the `measure` extra:
     pip install 'fcsweep[measure]'.
     """
     from fcsweep.io.failures import results_command

@@ -182,6 +182,26 @@ def test_readers_give_the_same_dataset(stack, tmp_path):
         _same(ref, disk.load())
 
 
+def test_calibration_from_imagej_and_ome_metadata(stack, tmp_path):
+    """Pixel size, interval and units come from ImageJ / OME metadata; an option that
+    contradicts them exits 2, one that agrees (in another spelling) is accepted."""
+    tifffile = pytest.importorskip("tifffile")
+    tifffile.imwrite(tmp_path / "ij.tif", stack, imagej=True, resolution=(1 / 0.5, 1 / 0.5),
+                     metadata={"unit": "micron", "finterval": 2.0, "axes": "TYX"})
+    tifffile.imwrite(tmp_path / "ome.tif", stack, ome=True,
+                     metadata={"axes": "TYX", "PhysicalSizeX": 0.5, "PhysicalSizeY": 0.5, "PhysicalSizeXUnit": "µm",
+                               "TimeIncrement": 2.0, "TimeIncrementUnit": "min"})
+    ref = measure(stack, 0.5, 2.0, length_unit="um", time_unit="s")
+    ij = measure(tmp_path / "ij.tif")
+    _same(ref, ij)
+    assert ij.attrs["pixel_size_x"] == 0.5 and ij.x.attrs["units"] == "um" and ij.time.attrs["units"] == "s"
+    ome = measure(str(tmp_path / "ome.tif"), pixel_size=0.5, length_unit="µm")
+    assert ome.time.attrs["units"] == "min" and ome.area.attrs["units"] == "um2"
+    for opts, what in ((["--pixel-size", "0.6"], "pixel size"), (["--time-unit", "h"], "time unit")):
+        r = CliRunner().invoke(cli, ["measure", str(tmp_path / "ome.tif"), "-o", str(tmp_path / "o"), *opts])
+        assert r.exit_code == 2 and f"{what}" in r.output and "conflicts" in r.output, r.output
+
+
 def test_seg_npy_loader_refuses_code(tmp_path):
     """A _seg.npy whose pickle names any callable but numpy's array builders is refused, unrun."""
     marker = tmp_path / "ran"

@@ -10,8 +10,10 @@ from fcsweep.measure.readers import MeasureInputError
 __all__ = ["parse_pixel_size", "parse_times", "measure_to_dir"]
 
 
-def parse_pixel_size(text: str) -> tuple[float, float]:
-    """``"X"`` or ``"X,Y"`` as (px, py); :class:`MeasureInputError` otherwise."""
+def parse_pixel_size(text: str | None):
+    """``"X"`` or ``"X,Y"`` as (px, py), None for None; :class:`MeasureInputError` otherwise."""
+    if text is None:
+        return None
     try:
         parts = [float(p) for p in str(text).split(",")]
     except ValueError:
@@ -31,10 +33,11 @@ def parse_times(text: str | None):
         raise MeasureInputError(f"--times must be comma-separated numbers, got {text!r}") from None
 
 
-def measure_to_dir(images, out, *, pixel_size: str = "1", frame_interval: float = 1.0, length_unit: str = "1",
-                   time_unit: str = "1", times: str | None = None, modes: int = 6,
+def measure_to_dir(images, out, *, pixel_size: str | None = None, frame_interval: float | None = None,
+                   length_unit: str | None = None, time_unit: str | None = None, times: str | None = None, modes: int = 6,
                    percolation_threshold: float = 0.5) -> Path:
-    """Measure ``images`` (paths) and write ``out/measure.nc``.
+    """Measure ``images`` (paths) and write ``out/measure.nc``; None options come from the
+    TIFF's metadata or default to 1 (:func:`fcsweep.measure.calibration.resolve`).
 
     Raises
     ------

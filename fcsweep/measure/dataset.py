@@ -15,6 +15,7 @@ import numpy as np
 import xarray as xr
 
 from fcsweep.io.sweepdir import atomic_write
+from fcsweep.measure.calibration import resolve
 from fcsweep.measure.cells import measure_cells
 from fcsweep.measure.frames import PERCOLATION_THRESHOLD, frame_statistics
 from fcsweep.measure.readers import MeasureInputError, iter_frames
@@ -75,8 +76,8 @@ def _pixel_pair(pixel_size) -> tuple[float, float]:
     return px, py
 
 
-def measure(labels, pixel_size=1.0, frame_interval=1.0, *, modes: int = 6, length_unit: str = "1",
-            time_unit: str = "1", times=None, percolation_threshold: float = PERCOLATION_THRESHOLD,
+def measure(labels, pixel_size=None, frame_interval=None, *, modes: int = 6, length_unit: str | None = None,
+            time_unit: str | None = None, times=None, percolation_threshold: float = PERCOLATION_THRESHOLD,
             track: bool = True) -> xr.Dataset:
     """Measure a segmented image or movie of a cell monolayer.
 
@@ -86,14 +87,18 @@ def measure(labels, pixel_size=1.0, frame_interval=1.0, *, modes: int = 6, lengt
         Integer label frames, 0 = background, 1..n = cells (:func:`fcsweep.measure.readers.iter_frames`):
         a 2-D or T x Y x X array, a TIFF, PNG or Cellpose ``_seg.npy`` file or a directory of
         them, or an iterator of frames (read one at a time).
-    pixel_size : float or (float, float)
-        Pixel width (and height) in ``length_unit``.
-    frame_interval : float
-        Time between frames in ``time_unit`` (unused when ``times`` is given).
+    pixel_size : float or (float, float), optional
+        Pixel width (and height) in ``length_unit``.  Default: from the OME / ImageJ
+        metadata of a TIFF, else 1.  Each of these four must agree with the metadata
+        where both exist (:mod:`fcsweep.measure.calibration`).
+    frame_interval : float, optional
+        Time between frames in ``time_unit`` (unused when ``times`` is given); default
+        from the metadata, else 1.
     modes : int
         Highest Fourier mode M of the contour fit (>= 2).
-    length_unit, time_unit : str
-        CF / UDUNITS unit strings written into the dataset (e.g. ``"um"``, ``"min"``).
+    length_unit, time_unit : str, optional
+        CF / UDUNITS unit strings written into the dataset (e.g. ``"um"``, ``"min"``);
+        default from the metadata, else ``"1"``.
     times : array_like, optional
         Time stamp of each frame.
     percolation_threshold : float
@@ -112,11 +117,14 @@ def measure(labels, pixel_size=1.0, frame_interval=1.0, *, modes: int = 6, lengt
     MeasureInputError
         Input that is not a usable label image (the message says which frame and why).
     """
-    px, py = _pixel_pair(pixel_size)
     if int(modes) < 2:
         raise MeasureInputError(f"modes must be >= 2, got {modes}")
-    if not (np.isfinite(frame_interval) and frame_interval > 0):
+    if frame_interval is not None and not (np.isfinite(frame_interval) and frame_interval > 0):
         raise MeasureInputError(f"frame interval must be positive, got {frame_interval!r}")
+    cal = resolve(labels, None if pixel_size is None else _pixel_pair(pixel_size), frame_interval, length_unit,
+                  time_unit)
+    px, py = cal.pixel_size
+    frame_interval, length_unit, time_unit = cal.frame_interval, cal.length_unit, cal.time_unit
     per_cell, per_frame, shape = [], [], None
     prev, prev_tracks, next_id = None, {}, 0
     for _, frame in iter_frames(labels):
