@@ -60,3 +60,38 @@ def render(pos, theta, a, b, res, fov):
 def exact_q(a, b):
     """The model's shape index of each cell."""
     return shape_indices(a, b)
+
+
+def render_overlapping(pos, theta, a, b, box, res, fov):
+    """Label frame of simulated cells in a periodic ``box``, which may overlap: a pixel inside
+    several contours goes to the cell for which it is deepest (smallest ``|p - r_i| / R_i(phi)``).
+    Periodic images of the cells are drawn, so ``fov`` may be anywhere inside the box."""
+    from fcsweep.model.shape import radius
+
+    x0, x1, y0, y1 = fov
+    nx, ny = int(round((x1 - x0) * res)), int(round((y1 - y0) * res))
+    frame = np.zeros((ny, nx), dtype=np.int32)
+    best = np.full((ny, nx), np.inf)
+    shifts = [np.array([i * box[0], j * box[1]]) for i in (-1, 0, 1) for j in (-1, 0, 1)]
+    contours = cell_contours(pos, theta, a, b, points=400)
+    for k, c0 in enumerate(contours):
+        for sh in shifts:
+            c = c0 + sh
+            cx, cy = (c[:, 0] - x0) * res, (c[:, 1] - y0) * res
+            col0, col1 = max(int(cx.min()) - 1, 0), min(int(cx.max()) + 2, nx)
+            row0, row1 = max(int(cy.min()) - 1, 0), min(int(cy.max()) + 2, ny)
+            if col0 >= col1 or row0 >= row1:
+                continue
+            gx, gy = np.meshgrid(np.arange(col0, col1) + 0.5, np.arange(row0, row1) + 0.5)
+            pts = np.stack([gx.ravel(), gy.ravel()], 1)
+            inside = MplPath(np.stack([cx, cy], 1)).contains_points(pts).reshape(gx.shape)
+            dx = gx / res + x0 - (pos[k, 0] + sh[0])
+            dy = gy / res + y0 - (pos[k, 1] + sh[1])
+            phi = np.arctan2(dy, dx) - theta[k]
+            R = radius(phi.ravel(), a[k], b[k])[0].reshape(gx.shape)
+            depth = np.where(inside, np.hypot(dx, dy) / R, np.inf)
+            blk = best[row0:row1, col0:col1]
+            win = depth < blk
+            blk[win] = depth[win]
+            frame[row0:row1, col0:col1][win] = k + 1
+    return frame
