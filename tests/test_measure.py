@@ -236,6 +236,17 @@ def test_calibration_from_imagej_and_ome_metadata(stack, tmp_path):
         assert r.exit_code == 2 and f"{what}" in r.output and "conflicts" in r.output, r.output
 
 
+def test_builtin_example(tmp_path):
+    """`fcsweep measure` without IMAGES measures the shipped example: 12 tracked frames of a
+    soft monolayer (q > 3.81 on average at eta = 0.01, v0 = 0.06), lengths in R0."""
+    r = CliRunner().invoke(cli, ["measure", "-o", str(tmp_path)])
+    assert r.exit_code == 0, r.output
+    with xr.open_dataset(tmp_path / "measure.nc") as ds:
+        assert ds.sizes["time"] == 12 and ds.attrs["pixel_size_x"] == 0.1
+        assert 3.7 < float(ds.q_mean.mean()) < 4.2 and int(ds.n_tracked) > 10
+        assert np.all(np.diff(ds.msd.values) > 0)
+
+
 def test_seg_npy_loader_refuses_code(tmp_path):
     """A _seg.npy whose pickle names any callable but numpy's array builders is refused, unrun."""
     marker = tmp_path / "ran"

@@ -7,7 +7,13 @@ from pathlib import Path
 from fcsweep.measure.dataset import measure, write_measure
 from fcsweep.measure.readers import MeasureInputError
 
-__all__ = ["parse_pixel_size", "parse_times", "measure_to_dir"]
+__all__ = ["parse_pixel_size", "parse_times", "measure_to_dir", "EXAMPLE", "EXAMPLE_PIXEL_SIZE"]
+
+#: The built-in example: 12 frames of 64 cells simulated at eta = 0.01, v0 = 0.06, 1 time
+#: unit apart, rendered at 10 px per R0 (benchmarks/measure_example.py writes it).
+EXAMPLE = Path(__file__).resolve().parent.parent / "data" / "measure_example.npy"
+#: Pixel size of the example in units of R0.
+EXAMPLE_PIXEL_SIZE = "0.1"
 
 
 def parse_pixel_size(text: str | None):
@@ -38,6 +44,7 @@ def measure_to_dir(images, out, *, pixel_size: str | None = None, frame_interval
                    percolation_threshold: float = 0.5) -> Path:
     """Measure ``images`` (paths) and write ``out/measure.nc``; None options come from the
     TIFF's metadata or default to 1 (:func:`fcsweep.measure.calibration.resolve`).
+    Without images, the built-in :data:`EXAMPLE` (lengths in R0, times in model units).
 
     Raises
     ------
@@ -48,6 +55,9 @@ def measure_to_dir(images, out, *, pixel_size: str | None = None, frame_interval
     fcsweep.io.failures.WriteFailure
         The file could not be written.
     """
+    if not images:
+        images = [EXAMPLE]
+        pixel_size = pixel_size or EXAMPLE_PIXEL_SIZE
     ds = measure(list(images), parse_pixel_size(pixel_size), frame_interval, modes=modes,
                  length_unit=length_unit, time_unit=time_unit, times=parse_times(times),
                  percolation_threshold=percolation_threshold)
