@@ -19,7 +19,7 @@ from fcsweep.measure.calibration import resolve
 from fcsweep.measure.cells import measure_cells
 from fcsweep.measure.frames import PERCOLATION_THRESHOLD, frame_statistics
 from fcsweep.measure.readers import MeasureInputError, iter_frames
-from fcsweep.measure.tracking import link_frames, tracked_msd
+from fcsweep.measure.tracking import link_frames, tracked_diffusion, tracked_msd
 from fcsweep.model.shape import Q_STAR
 
 __all__ = ["measure", "write_measure", "VARIABLES", "OUTPUT_NAME"]
@@ -63,7 +63,14 @@ VARIABLES = {
     "msd": (("lag",), "L2", "drift-subtracted mean squared displacement of the cells tracked, uncut, through every frame "
                             "(NaN for unequally spaced frames)"),
     "n_tracked": ((), "1", "cells tracked, not cut by the image edge, through every frame (those of the msd)"),
+    "D_s": ((), "L2/T", "long-time self-diffusion coefficient of the tracked cells (the simulations' estimator; "
+                        "active-Brownian fit with Dr, else linear)"),
+    "D_s_err": ((), "L2/T", "1-sigma error of D_s"),
+    "D_s_diffusive": ((), "1", "1 if the MSD slope has settled (D_s is a long-time value), 0 if not"),
+    "D_eff": ((), "1", "D_s / D0 with D0 = v0^2 / (2 Dr) from the given v0 and Dr (NaN without them)"),
+    "D_eff_err": ((), "1", "1-sigma error of D_eff"),
 }
+_MOVIE = ("msd", "n_tracked", "D_s", "D_s_err", "D_s_diffusive", "D_eff", "D_eff_err")
 
 _CELL_INT = {"label": 0, "n_sides": -1, "defect": -1}
 
@@ -78,7 +85,7 @@ def _pixel_pair(pixel_size) -> tuple[float, float]:
 
 def measure(labels, pixel_size=None, frame_interval=None, *, modes: int = 6, length_unit: str | None = None,
             time_unit: str | None = None, times=None, percolation_threshold: float = PERCOLATION_THRESHOLD,
-            track: bool = True) -> xr.Dataset:
+            track: bool = True, v0: float | None = None, Dr: float | None = None) -> xr.Dataset:
     """Measure a segmented image or movie of a cell monolayer.
 
     Parameters
@@ -105,7 +112,10 @@ def measure(labels, pixel_size=None, frame_interval=None, *, modes: int = 6, len
         rho_d above which a frame is percolated.
     track : bool
         Link cells across frames by mask overlap (:mod:`fcsweep.measure.tracking`): the
-        ``cell`` index is then a track.  The MSD needs it.
+        ``cell`` index is then a track.  The MSD and D_s need it.
+    v0, Dr : float, optional
+        Self-propulsion speed (length / time) and rotational diffusion (1 / time) of the
+        cells, if known: ``Dr`` selects the active-Brownian fit of D_s, both give ``D_eff``.
 
     Returns
     -------
@@ -149,9 +159,10 @@ def measure(labels, pixel_size=None, frame_interval=None, *, modes: int = 6, len
             raise MeasureInputError(f"times must be {T} increasing time stamps, got shape {t.shape}")
     ncell = next_id
     units = {"L": length_unit, "L2": f"{length_unit}2" if length_unit != "1" else "1", "T": time_unit, "1": "1"}
+    units["L2/T"] = " ".join([u for u in (units["L2"], f"{time_unit}-1") if u not in ("1", "1-1")]) or "1"
     data = {}
     for name, (dims, unit, long_name) in VARIABLES.items():
-        if name in ("msd", "n_tracked"):
+        if name in _MOVIE:
             continue
         if dims == _T:
             arr = np.array([f[name] for f in per_frame], dtype=float)
@@ -170,7 +181,9 @@ def measure(labels, pixel_size=None, frame_interval=None, *, modes: int = 6, len
         if track else (np.full(T, np.nan), 0)
     if not even:
         msd = np.full(T, np.nan)
-    for name, value in (("msd", msd), ("n_tracked", np.int64(n_tracked))):
+    xs, ys = np.where(cut, np.nan, data["x"].values), np.where(cut, np.nan, data["y"].values)
+    diff = tracked_diffusion(t, xs, ys, v0=v0, Dr=Dr) if (track and even) else tracked_diffusion(t[:1], xs[:1], ys[:1])
+    for name, value in (("msd", msd), ("n_tracked", np.int64(n_tracked)), *diff.items()):
         dims, unit, long_name = VARIABLES[name]
         data[name] = xr.Variable(dims, value, {"units": units[unit], "long_name": long_name})
     ds = xr.Dataset(data, coords={
@@ -179,7 +192,8 @@ def measure(labels, pixel_size=None, frame_interval=None, *, modes: int = 6, len
         "lag_time": ("lag", np.arange(T) * (dt[0] if T > 1 else 0.0), {"units": time_unit, "long_name": "lag time of the msd"})})
     ds.attrs.update(Conventions="CF-1.8", title="fcsweep measure: shape and defect observables of a segmented "
                     "cell monolayer", pixel_size_x=px, pixel_size_y=py, length_unit=length_unit,
-                    time_unit=time_unit, modes=int(modes), percolation_threshold=float(percolation_threshold),
+                    time_unit=time_unit, modes=int(modes), v0=np.nan if v0 is None else float(v0),
+                    Dr=np.nan if Dr is None else float(Dr), percolation_threshold=float(percolation_threshold),
                     image_shape=np.asarray(shape, dtype=np.int64), q_star=Q_STAR)
     return ds
 

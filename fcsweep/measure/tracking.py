@@ -11,9 +11,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from fcsweep.analysis.diffusion import effective_diffusion, estimate_diffusion
 from fcsweep.analysis.msd import msd_curve
 
-__all__ = ["link_frames", "tracked_msd", "MIN_OVERLAP"]
+__all__ = ["link_frames", "tracked_msd", "tracked_diffusion", "MIN_OVERLAP"]
 
 #: Overlap, as a fraction of the smaller of two masks, above which they may be one cell.
 MIN_OVERLAP = 0.5
@@ -91,3 +92,32 @@ def tracked_msd(x: np.ndarray, y: np.ndarray):
         return np.full(T, np.nan), n
     msd, _ = msd_curve(np.stack([x[:, full], y[:, full]], axis=-1))
     return msd, n
+
+
+def tracked_diffusion(t: np.ndarray, x: np.ndarray, y: np.ndarray, *, v0=None, Dr=None) -> dict:
+    """Long-time self-diffusion of the tracks present in every frame, in the user's units.
+
+    The simulations' estimator (:func:`fcsweep.analysis.diffusion.estimate_diffusion`): the
+    active-Brownian fit ``4 D t + A (1 - exp(-Dr t)) + c`` when ``Dr`` is given, else the
+    linear fit ``4 D t + c``, over time blocks, with the error from the scatter of the cells'
+    slopes (collective motion counted).  ``D_eff = D_s / D0``, ``D0 = v0^2 / (2 Dr)``, needs
+    both ``v0`` and ``Dr`` (in the user's units), which images do not give.
+
+    Returns
+    -------
+    dict
+        ``D_s``, ``D_s_err``, ``D_s_diffusive`` (1 when the slope has settled, else 0),
+        ``D_eff``, ``D_eff_err``; NaN where they cannot be computed.
+    """
+    nan = float("nan")
+    out = dict(D_s=nan, D_s_err=nan, D_s_diffusive=nan, D_eff=nan, D_eff_err=nan)
+    full = np.all(np.isfinite(x), axis=0) & np.all(np.isfinite(y), axis=0)
+    if x.shape[0] < 3 or full.sum() < 2:
+        return out
+    est = estimate_diffusion(t, np.stack([x[:, full], y[:, full]], axis=-1), Dr=float(Dr) if Dr else 0.0)
+    if not np.isfinite(est.D):
+        return out
+    out.update(D_s=float(est.D), D_s_err=float(est.D_err), D_s_diffusive=float(est.diffusive))
+    if v0 is not None and Dr:
+        out["D_eff"], out["D_eff_err"] = effective_diffusion(est.D, est.D_err, float(v0), float(Dr))
+    return out
