@@ -276,6 +276,8 @@ def test_builtin_example(tmp_path):
         assert ds.sizes["time"] == 12 and ds.attrs["pixel_size_x"] == 0.1
         assert 3.7 < float(ds.q_mean.mean()) < 4.2 and int(ds.n_tracked) > 10
         assert np.all(np.diff(ds.msd.values) > 0)
+        assert float(ds.q_mean_movie) == pytest.approx(float(ds.q_mean.mean()), rel=1e-12)
+        assert 0 < float(ds.rho_d_movie_err) < 0.1 and float(ds.D_s) > 0
 
 
 def test_seg_npy_loader_refuses_code(tmp_path):

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from fcsweep.analysis.stats import time_average
 from fcsweep.io.sweepdir import atomic_write
 from fcsweep.measure.calibration import resolve
 from fcsweep.measure.cells import measure_cells
@@ -70,7 +71,15 @@ VARIABLES = {
     "D_eff": ((), "1", "D_s / D0 with D0 = v0^2 / (2 Dr) from the given v0 and Dr (NaN without them)"),
     "D_eff_err": ((), "1", "1-sigma error of D_eff"),
 }
-_MOVIE = ("msd", "n_tracked", "D_s", "D_s_err", "D_s_diffusive", "D_eff", "D_eff_err")
+#: Per-frame series averaged over the movie (``<name>_movie`` and ``<name>_movie_err``).
+AVERAGED = ("q_mean", "q_frac_above", "rho_d", "largest_cluster_fraction", "psi6")
+for _name in AVERAGED:
+    VARIABLES[f"{_name}_movie"] = ((), "1", f"{_name} averaged over the frames (all kept: a movie has no "
+                                            "equilibration to cut)")
+    VARIABLES[f"{_name}_movie_err"] = ((), "1", f"1-sigma error of {_name}_movie from the frames' autocorrelation "
+                                                "(NaN with fewer than 4 frames)")
+_MOVIE = ("msd", "n_tracked", "D_s", "D_s_err", "D_s_diffusive", "D_eff", "D_eff_err",
+          *(f"{n}_movie{e}" for n in AVERAGED for e in ("", "_err")))
 
 _CELL_INT = {"label": 0, "n_sides": -1, "defect": -1}
 
@@ -183,6 +192,11 @@ def measure(labels, pixel_size=None, frame_interval=None, *, modes: int = 6, len
         msd = np.full(T, np.nan)
     xs, ys = np.where(cut, np.nan, data["x"].values), np.where(cut, np.nan, data["y"].values)
     diff = tracked_diffusion(t, xs, ys, v0=v0, Dr=Dr) if (track and even) else tracked_diffusion(t[:1], xs[:1], ys[:1])
+    for name in AVERAGED:
+        series = data[name].values
+        avg = time_average(series, equilibrate=False) if np.all(np.isfinite(series)) else None
+        diff[f"{name}_movie"] = avg.mean if avg else np.nan
+        diff[f"{name}_movie_err"] = avg.err if avg else np.nan
     for name, value in (("msd", msd), ("n_tracked", np.int64(n_tracked)), *diff.items()):
         dims, unit, long_name = VARIABLES[name]
         data[name] = xr.Variable(dims, value, {"units": units[unit], "long_name": long_name})
