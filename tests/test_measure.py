@@ -235,7 +235,8 @@ def test_readers_give_the_same_dataset(stack, tmp_path):
                 {"masks": fr, "outlines": np.zeros_like(fr), "filename": f"f{k}.tif", "chan_choose": [0, 0],
                  "diameter": 30.0}, allow_pickle=True)
     ref = measure(stack, 0.5, 2.0, length_unit="um", time_unit="min")
-    for src in (tmp_path / "s.tif", tmp_path / "z.tif", tmp_path / "ij.tif", tmp_path / "png", tmp_path / "seg", iter(list(stack))):
+    for src in (tmp_path / "s.tif", tmp_path / "z.tif", tmp_path / "ij.tif", tmp_path / "png", tmp_path / "seg",
+                iter(list(stack))):
         _same(ref, fcsweep.measure(src, pixel_size=0.5, frame_interval=2.0, length_unit="um", time_unit="min"))
     assert ref.x.attrs["units"] == "um" and ref.area.attrs["units"] == "um2"
     assert ref.time.attrs["units"] == "min" and list(ref.time.values) == [0.0, 2.0]
@@ -278,6 +279,13 @@ def test_builtin_example(tmp_path):
         assert np.all(np.diff(ds.msd.values) > 0)
         assert float(ds.q_mean_movie) == pytest.approx(float(ds.q_mean.mean()), rel=1e-12)
         assert 0 < float(ds.rho_d_movie_err) < 0.1 and float(ds.D_s) > 0
+        assert int(ds.phase_movie) == -1 and "--v0 and --Dr" in str(ds.phase_movie_reason.values)
+        # the simulation's rho_d rule: percolated iff P(rho_d > 1/2) >= 0.95, undetermined (2) between
+        p = float(ds.percolated_movie_confidence)
+        assert int(ds.percolated_movie) == (2 if p < 0.95 else int(float(ds.rho_d_movie) > 0.5))
+    r = CliRunner().invoke(cli, ["measure", "-o", str(tmp_path), "--v0", "0.06", "--Dr", "0.01"])
+    with xr.open_dataset(tmp_path / "measure.nc") as ds:  # 11 time units << 8 / Dr: D_eff decides nothing
+        assert int(ds.phase_movie) == 3 and "8 / Dr" in str(ds.phase_movie_reason.values)
 
 
 def test_seg_npy_loader_refuses_code(tmp_path):

@@ -40,7 +40,8 @@ def parse_times(text: str | None):
 
 
 def measure_to_dir(images, out, *, pixel_size: str | None = None, frame_interval: float | None = None,
-                   length_unit: str | None = None, time_unit: str | None = None, times: str | None = None, modes: int = 6,
+                   length_unit: str | None = None, time_unit: str | None = None, times: str | None = None,
+                   modes: int = 6,
                    percolation_threshold: float = 0.5, v0: float | None = None, Dr: float | None = None) -> Path:
     """Measure ``images`` (paths) and write ``out/measure.nc``; None options come from the
     TIFF's metadata or default to 1 (:func:`fcsweep.measure.calibration.resolve`).

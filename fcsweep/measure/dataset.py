@@ -4,7 +4,8 @@ observables out; ``write_measure`` stores it as ``OUT/measure.nc``.
 Dimensions ``time`` (frames, in the user's time unit), ``cell`` (a track: a cell linked
 across frames by the overlap of its masks keeps its index, NaN / fill where it is absent;
 :mod:`fcsweep.measure.tracking`; with ``track=False`` the cells of each frame in the order of
-their labels), ``mode`` (n = 2..M) and ``lag`` (of the MSD).  Every variable carries its CF ``units`` and ``long_name`` (:data:`VARIABLES`).
+their labels), ``mode`` (n = 2..M) and ``lag`` (of the MSD).  Every variable carries its
+CF ``units`` and ``long_name`` (:data:`VARIABLES`).
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from fcsweep.measure.calibration import resolve
 from fcsweep.measure.cells import measure_cells
 from fcsweep.measure.frames import PERCOLATION_THRESHOLD, frame_statistics
 from fcsweep.measure.readers import MeasureInputError, iter_frames
+from fcsweep.measure.labels import movie_labels
 from fcsweep.measure.tracking import link_frames, tracked_diffusion, tracked_msd
 from fcsweep.model.shape import Q_STAR
 
@@ -61,13 +63,15 @@ VARIABLES = {
     "percolated": (_T, "1", "1 if rho_d > percolation_threshold"),
     "spanning": (_T, "1", "1 if a defect cluster touches two opposite edges of the field of view"),
     "psi6": (_T, "1", "global hexatic order |mean psi6_i| over the classified cells"),
-    "msd": (("lag",), "L2", "drift-subtracted mean squared displacement of the cells tracked, uncut, through every frame "
+    "msd": (("lag",), "L2", "drift-subtracted mean squared displacement of the cells tracked, uncut, through "
+                            "every frame "
                             "(NaN for unequally spaced frames)"),
     "n_tracked": ((), "1", "cells tracked, not cut by the image edge, through every frame (those of the msd)"),
     "D_s": ((), "L2/T", "long-time self-diffusion coefficient of the tracked cells (the simulations' estimator; "
                         "active-Brownian fit with Dr, else linear)"),
     "D_s_err": ((), "L2/T", "1-sigma error of D_s"),
-    "D_s_diffusive": ((), "1", "1 if the MSD slope has settled (D_s is a long-time value), 0 if not"),
+    "D_s_diffusive": ((), "1", "1 if the MSD slope has settled (and, with Dr, the movie spans 8 / Dr): D_s is a "
+                               "long-time value; 0 if not"),
     "D_eff": ((), "1", "D_s / D0 with D0 = v0^2 / (2 Dr) from the given v0 and Dr (NaN without them)"),
     "D_eff_err": ((), "1", "1-sigma error of D_eff"),
 }
@@ -78,6 +82,10 @@ for _name in AVERAGED:
                                             "equilibration to cut)")
     VARIABLES[f"{_name}_movie_err"] = ((), "1", f"1-sigma error of {_name}_movie from the frames' autocorrelation "
                                                 "(NaN with fewer than 4 frames)")
+#: Movie labels (``<name>_movie`` int8 flags with ``_confidence`` and ``_reason``; :mod:`fcsweep.measure.labels`).
+LABELS = {"percolated": "percolation label of the movie: rho_d_movie > percolation_threshold with its error",
+          "phase": "phase label of the movie: plain D_eff test (solid if D_eff < 1e-3, else soft fluid if "
+                   "q_mean_movie > 3.81, else fluid); unknown without --v0 and --Dr"}
 _MOVIE = ("msd", "n_tracked", "D_s", "D_s_err", "D_s_diffusive", "D_eff", "D_eff_err",
           *(f"{n}_movie{e}" for n in AVERAGED for e in ("", "_err")))
 
@@ -200,10 +208,16 @@ def measure(labels, pixel_size=None, frame_interval=None, *, modes: int = 6, len
     for name, value in (("msd", msd), ("n_tracked", np.int64(n_tracked)), *diff.items()):
         dims, unit, long_name = VARIABLES[name]
         data[name] = xr.Variable(dims, value, {"units": units[unit], "long_name": long_name})
+    for name, (code, conf, reason, flags) in movie_labels(diff, threshold=percolation_threshold).items():
+        data[f"{name}_movie"] = xr.Variable((), np.int8(code), {"long_name": LABELS[name], **flags})
+        data[f"{name}_movie_confidence"] = xr.Variable((), float(conf), {
+            "units": "1", "long_name": f"probability of the most probable {name} label"})
+        data[f"{name}_movie_reason"] = xr.Variable((), str(reason), {"long_name": f"why {name}_movie is what it is"})
     ds = xr.Dataset(data, coords={
         "time": ("time", t, {"units": time_unit, "long_name": "time of the frame"}),
         "mode": ("mode", np.arange(2, int(modes) + 1), {"units": "1", "long_name": "Fourier mode number n"}),
-        "lag_time": ("lag", np.arange(T) * (dt[0] if T > 1 else 0.0), {"units": time_unit, "long_name": "lag time of the msd"})})
+        "lag_time": ("lag", np.arange(T) * (dt[0] if T > 1 else 0.0),
+                     {"units": time_unit, "long_name": "lag time of the msd"})})
     ds.attrs.update(Conventions="CF-1.8", title="fcsweep measure: shape and defect observables of a segmented "
                     "cell monolayer", pixel_size_x=px, pixel_size_y=py, length_unit=length_unit,
                     time_unit=time_unit, modes=int(modes), v0=np.nan if v0 is None else float(v0),

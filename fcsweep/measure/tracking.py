@@ -106,7 +106,8 @@ def tracked_diffusion(t: np.ndarray, x: np.ndarray, y: np.ndarray, *, v0=None, D
     Returns
     -------
     dict
-        ``D_s``, ``D_s_err``, ``D_s_diffusive`` (1 when the slope has settled, else 0),
+        ``D_s``, ``D_s_err``, ``D_s_diffusive`` (1 when the slope has settled and, with
+        ``Dr``, the movie spans at least 8 / Dr; else 0),
         ``D_eff``, ``D_eff_err``; NaN where they cannot be computed.
     """
     nan = float("nan")
@@ -117,7 +118,7 @@ def tracked_diffusion(t: np.ndarray, x: np.ndarray, y: np.ndarray, *, v0=None, D
     est = estimate_diffusion(t, np.stack([x[:, full], y[:, full]], axis=-1), Dr=float(Dr) if Dr else 0.0)
     if not np.isfinite(est.D):
         return out
-    out.update(D_s=float(est.D), D_s_err=float(est.D_err), D_s_diffusive=float(est.diffusive))
+    out.update(D_s=float(est.D), D_s_err=float(est.D_err), D_s_diffusive=float(est.diffusive and est.long_enough))
     if v0 is not None and Dr:
         out["D_eff"], out["D_eff_err"] = effective_diffusion(est.D, est.D_err, float(v0), float(Dr))
     return out
