@@ -654,12 +654,14 @@ def export(run, config, output, fmt, frames, out_path, unwrapped, polygons, imag
               help="Highest Fourier mode M of the contour fit.")
 @click.option("--percolation-threshold", type=click.FloatRange(0, 1), default=0.5, show_default=True,
               help="rho_d above which a frame is percolated.")
+@click.option("--neighbours", type=click.Choice(["voronoi", "contact"]), default="voronoi", show_default=True,
+              help="Defect graph: Voronoi of the centroids (the paper's rule) or touching masks.")
 @click.option("--v0", type=click.FloatRange(min=0), default=None,
               help="Cell speed in --length-unit per --time-unit, if known (with --Dr: D_eff).")
 @click.option("--Dr", "Dr", type=click.FloatRange(min=0, min_open=True), default=None,
               help="Rotational diffusion in 1 / --time-unit, if known (active-Brownian fit of D_s).")
 def measure(images, output, pixel_size, frame_interval, times, length_unit, time_unit, modes, percolation_threshold,
-            v0, Dr):
+            neighbours, v0, Dr):
     """Shape index, Voronoi defects, their clusters and hexatic order of segmented cell images.
 
     IMAGES: integer label images (0 = background, 1..n = cells): a TIFF (2-D or T x Y x X),
@@ -681,7 +683,8 @@ def measure(images, output, pixel_size, frame_interval, times, length_unit, time
         with results_command(_say, "--output"):
             path = measure_to_dir(images, output, pixel_size=pixel_size, frame_interval=frame_interval,
                                   length_unit=length_unit, time_unit=time_unit, times=times, modes=modes,
-                                  percolation_threshold=percolation_threshold, v0=v0, Dr=Dr)
+                                  percolation_threshold=percolation_threshold, v0=v0, Dr=Dr,
+                                  neighbours=neighbours)
     except (ImportError, MeasureInputError) as exc:
         _say(str(exc))
         sys.exit(2)

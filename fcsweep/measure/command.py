@@ -42,7 +42,8 @@ def parse_times(text: str | None):
 def measure_to_dir(images, out, *, pixel_size: str | None = None, frame_interval: float | None = None,
                    length_unit: str | None = None, time_unit: str | None = None, times: str | None = None,
                    modes: int = 6,
-                   percolation_threshold: float = 0.5, v0: float | None = None, Dr: float | None = None) -> Path:
+                   percolation_threshold: float = 0.5, v0: float | None = None, Dr: float | None = None,
+                   neighbours: str = "voronoi") -> Path:
     """Measure ``images`` (paths) and write ``out/measure.nc``; None options come from the
     TIFF's metadata or default to 1 (:func:`fcsweep.measure.calibration.resolve`).
     Without images, the built-in :data:`EXAMPLE` (lengths in R0, times in model units).
@@ -61,6 +62,6 @@ def measure_to_dir(images, out, *, pixel_size: str | None = None, frame_interval
         pixel_size = pixel_size or EXAMPLE_PIXEL_SIZE
     ds = measure(list(images), parse_pixel_size(pixel_size), frame_interval, modes=modes,
                  length_unit=length_unit, time_unit=time_unit, times=parse_times(times),
-                 percolation_threshold=percolation_threshold, v0=v0, Dr=Dr)
+                 percolation_threshold=percolation_threshold, v0=v0, Dr=Dr, neighbours=neighbours)
     ds.attrs["source"] = " ".join(str(p) for p in images)
     return write_measure(ds, out)

@@ -21,6 +21,7 @@ from fcsweep.measure.calibration import resolve
 from fcsweep.measure.cells import measure_cells
 from fcsweep.measure.frames import PERCOLATION_THRESHOLD, frame_statistics
 from fcsweep.measure.readers import MeasureInputError, iter_frames
+from fcsweep.measure.contacts import contact_graph
 from fcsweep.measure.labels import movie_labels
 from fcsweep.measure.tracking import link_frames, tracked_diffusion, tracked_msd
 from fcsweep.model.shape import Q_STAR
@@ -102,7 +103,8 @@ def _pixel_pair(pixel_size) -> tuple[float, float]:
 
 def measure(labels, pixel_size=None, frame_interval=None, *, modes: int = 6, length_unit: str | None = None,
             time_unit: str | None = None, times=None, percolation_threshold: float = PERCOLATION_THRESHOLD,
-            track: bool = True, v0: float | None = None, Dr: float | None = None) -> xr.Dataset:
+            track: bool = True, v0: float | None = None, Dr: float | None = None,
+            neighbours: str = "voronoi") -> xr.Dataset:
     """Measure a segmented image or movie of a cell monolayer.
 
     Parameters
@@ -130,6 +132,10 @@ def measure(labels, pixel_size=None, frame_interval=None, *, modes: int = 6, len
     track : bool
         Link cells across frames by mask overlap (:mod:`fcsweep.measure.tracking`): the
         ``cell`` index is then a track.  The MSD and D_s need it.
+    neighbours : {"voronoi", "contact"}
+        The neighbour graph of the defects: the Voronoi of the centroids with open
+        boundaries (the paper's rule, default) or the touching masks
+        (:mod:`fcsweep.measure.contacts`).
     v0, Dr : float, optional
         Self-propulsion speed (length / time) and rotational diffusion (1 / time) of the
         cells, if known: ``Dr`` selects the active-Brownian fit of D_s, both give ``D_eff``.
@@ -146,6 +152,8 @@ def measure(labels, pixel_size=None, frame_interval=None, *, modes: int = 6, len
     """
     if int(modes) < 2:
         raise MeasureInputError(f"modes must be >= 2, got {modes}")
+    if neighbours not in ("voronoi", "contact"):
+        raise MeasureInputError(f"neighbours must be 'voronoi' or 'contact', got {neighbours!r}")
     if frame_interval is not None and not (np.isfinite(frame_interval) and frame_interval > 0):
         raise MeasureInputError(f"frame interval must be positive, got {frame_interval!r}")
     cal = resolve(labels, None if pixel_size is None else _pixel_pair(pixel_size), frame_interval, length_unit,
@@ -163,7 +171,8 @@ def measure(labels, pixel_size=None, frame_interval=None, *, modes: int = 6, len
         else:
             cells["index"] = np.arange(len(cells["label"]))
             next_id = max(next_id, len(cells["label"]))
-        stats = frame_statistics(cells, (0.0, shape[1] * px, 0.0, shape[0] * py), percolation_threshold)
+        graph = contact_graph(frame, cells["label"]) if neighbours == "contact" else None
+        stats = frame_statistics(cells, (0.0, shape[1] * px, 0.0, shape[0] * py), percolation_threshold, graph)
         cells.update(n_sides=stats.pop("n_sides"), defect=stats.pop("defect"))
         per_cell.append(cells)
         per_frame.append(stats)
@@ -220,7 +229,8 @@ def measure(labels, pixel_size=None, frame_interval=None, *, modes: int = 6, len
                      {"units": time_unit, "long_name": "lag time of the msd"})})
     ds.attrs.update(Conventions="CF-1.8", title="fcsweep measure: shape and defect observables of a segmented "
                     "cell monolayer", pixel_size_x=px, pixel_size_y=py, length_unit=length_unit,
-                    time_unit=time_unit, modes=int(modes), v0=np.nan if v0 is None else float(v0),
+                    time_unit=time_unit, modes=int(modes), neighbours=neighbours,
+                    v0=np.nan if v0 is None else float(v0),
                     Dr=np.nan if Dr is None else float(Dr), percolation_threshold=float(percolation_threshold),
                     image_shape=np.asarray(shape, dtype=np.int64), q_star=Q_STAR)
     return ds

@@ -44,7 +44,7 @@ def _clusters(defect: np.ndarray, i: np.ndarray, j: np.ndarray):
     return np.where(defect, comp, -1)
 
 
-def frame_statistics(cells: dict, bounds, threshold: float = PERCOLATION_THRESHOLD) -> dict:
+def frame_statistics(cells: dict, bounds, threshold: float = PERCOLATION_THRESHOLD, graph=None) -> dict:
     """The per-frame numbers of one measured frame.
 
     Parameters
@@ -55,6 +55,9 @@ def frame_statistics(cells: dict, bounds, threshold: float = PERCOLATION_THRESHO
         Field of view in length units.
     threshold : float
         rho_d above which the frame is percolated.
+    graph : OpenVoronoi, optional
+        The neighbour graph; default the Voronoi of the centroids with open boundaries
+        (the touching-neighbour graph: :func:`fcsweep.measure.contacts.contact_graph`).
 
     Returns
     -------
@@ -72,7 +75,7 @@ def frame_statistics(cells: dict, bounds, threshold: float = PERCOLATION_THRESHO
     if q.size:
         out.update(q_mean=float(q.mean()), q_frac_above=float(np.mean(q > Q_STAR)),
                    q_mean_err=float(q.std(ddof=1) / np.sqrt(q.size)) if q.size > 1 else np.nan)
-    vor = open_voronoi(pos, bounds)
+    vor = open_voronoi(pos, bounds) if graph is None else graph
     inner = vor.interior
     n_in = int(inner.sum())
     defect = defect_mask(vor.n_sides) & inner
