@@ -505,13 +505,20 @@ def aggregate(config, output):
 @click.option("--run", "run", default=None, help="Plot one run (id or index) instead of the sweep.")
 @click.option("--frame", type=int, default=-1, show_default=True, help="Frame for snapshot plots.")
 @click.option("--outdir", type=click.Path(file_okay=False), default=None, help="Where figures go.")
-def plot(config, output, run, frame, outdir):
+@click.option("--measured", multiple=True, type=click.Path(),
+              help="A measure.nc of `fcsweep measure` (or its directory) to draw beside the simulated points "
+                   "on the <q> - rho_d plane (repeatable).")
+def plot(config, output, run, frame, outdir, measured):
     """Figures of the sweep (phase diagram and companions) or a snapshot of one run."""
     _headless()
     from fcsweep.analysis.figures import NothingToPlot, plot_sweep
     from fcsweep.analysis.pipeline import DATASET_FILE
     from fcsweep.io.failures import results_command
 
+    missing = [m for m in measured if not (Path(m).is_file() or (Path(m) / "measure.nc").is_file())]
+    if missing:
+        _say(f"--measured {missing[0]}: no measure.nc there (run `fcsweep measure` first)")
+        sys.exit(2)
     cfg = _load(config, output)
     out = _announce(cfg)
     if run is not None:
@@ -522,7 +529,7 @@ def plot(config, output, run, frame, outdir):
             _nothing(f"nothing to plot in {out}: no phase_diagram.nc, {why} ({_wrong_dir_hint(config, output)})")
     try:
         with results_command(_say, "--outdir"):
-            paths = plot_sweep(cfg, run=run, frame=frame, outdir=Path(outdir) if outdir else None)
+            paths = plot_sweep(cfg, run=run, frame=frame, outdir=Path(outdir) if outdir else None, measured=measured)
     except NothingToPlot as exc:
         _nothing(str(exc))
     for p in paths:

@@ -308,6 +308,38 @@ def test_builtin_example(tmp_path):
         assert int(ds.phase_movie) == 3 and "8 / Dr" in str(ds.phase_movie_reason.values)
 
 
+def test_measured_movies_drawn_beside_simulated_points(tmp_path, monkeypatch):
+    """The <q> - rho_d figure: one error-bar marker per measured movie at its frame
+    averages, the simulated points with theirs."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from test_figures import synthetic_dataset, with_statistics
+
+    from fcsweep.analysis.figures.common import save_figure
+    from fcsweep.analysis.figures.measured import measured_plane
+
+    CliRunner().invoke(cli, ["measure", "-o", str(tmp_path)])
+    with xr.open_dataset(tmp_path / "measure.nc") as m:
+        m = m.load()
+    sim = with_statistics(synthetic_dataset())
+    fig = measured_plane(sim, [m, m], names=["a", "b"])
+    ax = fig.axes[0]
+    labels = ax.get_legend_handles_labels()[1]
+    assert "measured: a" in labels and any(lab.startswith("simulated") for lab in labels)
+    point = next(c for c in ax.containers if c.get_label() == "measured: a")[0]
+    assert point.get_xdata()[0] == pytest.approx(float(m.q_mean_movie))
+    assert point.get_ydata()[0] == pytest.approx(float(m.rho_d_movie))
+    assert [p.suffix for p in save_figure(fig, tmp_path / "plane")] == [".png", ".pdf"]
+    # `fcsweep plot --measured DIR` adds the figure to the sweep's
+    from fcsweep.analysis import figures
+
+    monkeypatch.setattr(figures, "sweep_dataset", lambda cfg: sim)
+    monkeypatch.setattr(figures, "plot_dataset", lambda ds, outdir: [])
+    paths = figures.plot_sweep(None, outdir=tmp_path / "figs", measured=[str(tmp_path)])
+    assert [p.name for p in paths] == ["measured_q_rho.png", "measured_q_rho.pdf"]
+
+
 def test_seg_npy_loader_refuses_code(tmp_path):
     """A _seg.npy whose pickle names any callable but numpy's array builders is refused, unrun."""
     marker = tmp_path / "ran"
