@@ -10,11 +10,13 @@ CF ``units`` and ``long_name`` (:data:`VARIABLES`).
 
 from __future__ import annotations
 
+import datetime as _dt
 from pathlib import Path
 
 import numpy as np
 import xarray as xr
 
+from fcsweep import __version__
 from fcsweep.analysis.stats import time_average
 from fcsweep.io.sweepdir import atomic_write
 from fcsweep.measure.calibration import resolve
@@ -195,7 +197,7 @@ def measure(labels, pixel_size=None, frame_interval=None, *, modes: int = 6, len
         else:
             fill = _CELL_INT.get(name, np.nan)
             tail = (int(modes) - 1,) if dims == _M else ()
-            arr = np.full((T, ncell) + tail, fill, dtype=np.int64 if name in _CELL_INT else float)
+            arr = np.full((T, ncell) + tail, fill, dtype=np.int32 if name in _CELL_INT else float)
             for k, c in enumerate(per_cell):
                 arr[k, c["index"]] = c[name]
         data[name] = xr.Variable(dims, arr, {"units": units[unit], "long_name": long_name})
@@ -214,7 +216,7 @@ def measure(labels, pixel_size=None, frame_interval=None, *, modes: int = 6, len
         avg = time_average(series, equilibrate=False) if np.all(np.isfinite(series)) else None
         diff[f"{name}_movie"] = avg.mean if avg else np.nan
         diff[f"{name}_movie_err"] = avg.err if avg else np.nan
-    for name, value in (("msd", msd), ("n_tracked", np.int64(n_tracked)), *diff.items()):
+    for name, value in (("msd", msd), ("n_tracked", np.int32(n_tracked)), *diff.items()):
         dims, unit, long_name = VARIABLES[name]
         data[name] = xr.Variable(dims, value, {"units": units[unit], "long_name": long_name})
     for name, (code, conf, reason, flags) in movie_labels(diff, threshold=percolation_threshold).items():
@@ -224,7 +226,7 @@ def measure(labels, pixel_size=None, frame_interval=None, *, modes: int = 6, len
         data[f"{name}_movie_reason"] = xr.Variable((), str(reason), {"long_name": f"why {name}_movie is what it is"})
     ds = xr.Dataset(data, coords={
         "time": ("time", t, {"units": time_unit, "long_name": "time of the frame"}),
-        "mode": ("mode", np.arange(2, int(modes) + 1), {"units": "1", "long_name": "Fourier mode number n"}),
+        "mode": ("mode", np.arange(2, int(modes) + 1, dtype=np.int32), {"units": "1", "long_name": "Fourier mode number n"}),
         "lag_time": ("lag", np.arange(T) * (dt[0] if T > 1 else 0.0),
                      {"units": time_unit, "long_name": "lag time of the msd"})})
     ds.attrs.update(Conventions="CF-1.8", title="fcsweep measure: shape and defect observables of a segmented "
@@ -232,7 +234,9 @@ def measure(labels, pixel_size=None, frame_interval=None, *, modes: int = 6, len
                     time_unit=time_unit, modes=int(modes), neighbours=neighbours,
                     v0=np.nan if v0 is None else float(v0),
                     Dr=np.nan if Dr is None else float(Dr), percolation_threshold=float(percolation_threshold),
-                    image_shape=np.asarray(shape, dtype=np.int64), q_star=Q_STAR)
+                    image_shape=np.asarray(shape, dtype=np.int32), q_star=Q_STAR,
+                    history=f"{_dt.datetime.now(_dt.timezone.utc).isoformat(timespec='seconds')} fcsweep measure",
+                    fcsweep_version=__version__)
     return ds
 
 
@@ -240,4 +244,6 @@ def write_measure(ds: xr.Dataset, out_dir) -> Path:
     """Write ``ds`` to ``out_dir/measure.nc`` through :func:`fcsweep.io.sweepdir.atomic_write`."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    return atomic_write(out_dir / OUTPUT_NAME, lambda tmp: ds.to_netcdf(tmp), suffix=".nc")
+    enc = {v: {"_FillValue": None if v in ds.coords else np.nan} for v in ds.variables if ds[v].dtype.kind == "f"}
+    return atomic_write(out_dir / OUTPUT_NAME, lambda tmp: ds.to_netcdf(tmp, format="NETCDF4", encoding=enc),
+                        suffix=".nc")
