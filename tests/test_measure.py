@@ -227,6 +227,23 @@ def test_contact_graph_of_a_confluent_monolayer_is_its_voronoi():
     assert ds.attrs["neighbours"] == "contact"
 
 
+@pytest.mark.parametrize("p_broken, q, expected", [(0.99, 3.70, 1), (0.99, 3.95, 2), (0.99, 3.81, 3),
+                                                    (0.40, 3.70, 3), (float("nan"), 3.7, -1)])
+def test_phase_from_cages_alone_without_d0(p_broken, q, expected):
+    """Without v0 and Dr: broken cages (P >= 0.95) are "not solid", then <q> +- 0.01 against
+    3.81 decides fluid (1) or soft fluid (2) with the product of the two probabilities;
+    intact or untested cages leave the phase undetermined (3) or unknown (-1)."""
+    from fcsweep.measure.labels import movie_labels
+
+    nan = float("nan")
+    values = dict(rho_d_movie=0.3, rho_d_movie_err=0.01, q_mean_movie=q, q_mean_movie_err=0.01, D_eff=nan,
+                  D_eff_err=nan, D_s_diffusive=nan, cage_broken_probability=p_broken)
+    code, conf, reason, _ = movie_labels(values, threshold=0.5)["phase"]
+    assert code == expected, reason
+    assert ("cages broken" in reason) == (p_broken > 0.95)
+    assert movie_labels(values, threshold=0.5)["percolated"][0] == 0
+
+
 @pytest.fixture(scope="module")
 def stack():
     pos, theta, a, b, fov = _scene(8, 3, 3.0, 10)
@@ -299,7 +316,9 @@ def test_builtin_example(tmp_path):
         assert np.all(np.diff(ds.msd.values) > 0)
         assert float(ds.q_mean_movie) == pytest.approx(float(ds.q_mean.mean()), rel=1e-12)
         assert 0 < float(ds.rho_d_movie_err) < 0.1 and float(ds.D_s) > 0
-        assert int(ds.phase_movie) == -1 and "--v0 and --Dr" in str(ds.phase_movie_reason.values)
+        # 11 time units: the cells barely leave their cages, and without D_eff solid cannot be shown
+        assert float(ds.cage_broken_probability) < 0.05 and float(ds.cage_msd_ratio) < 0.1
+        assert int(ds.phase_movie) == 3 and "--v0 and --Dr" in str(ds.phase_movie_reason.values)
         # the simulation's rho_d rule: percolated iff P(rho_d > 1/2) >= 0.95, undetermined (2) between
         p = float(ds.percolated_movie_confidence)
         assert int(ds.percolated_movie) == (2 if p < 0.95 else int(float(ds.rho_d_movie) > 0.5))

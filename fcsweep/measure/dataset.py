@@ -25,7 +25,7 @@ from fcsweep.measure.frames import PERCOLATION_THRESHOLD, frame_statistics
 from fcsweep.measure.readers import MeasureInputError, iter_frames
 from fcsweep.measure.contacts import contact_graph
 from fcsweep.measure.labels import movie_labels
-from fcsweep.measure.tracking import link_frames, tracked_diffusion, tracked_msd
+from fcsweep.measure.tracking import link_frames, tracked_cages, tracked_diffusion, tracked_msd
 from fcsweep.model.shape import Q_STAR
 
 __all__ = ["measure", "write_measure", "VARIABLES", "OUTPUT_NAME"]
@@ -77,6 +77,18 @@ VARIABLES = {
                                "long-time value; 0 if not"),
     "D_eff": ((), "1", "D_s / D0 with D0 = v0^2 / (2 Dr) from the given v0 and Dr (NaN without them)"),
     "D_eff_err": ((), "1", "1-sigma error of D_eff"),
+    "neighbour_spacing": ((), "L", "neighbour spacing a of a triangular lattice at the cells' density"),
+    "cage_msd_ratio": ((), "1", "cage-relative MSD over a^2 at the cage test's lag (> 1: cages broken)"),
+    "cage_msd_ratio_err": ((), "1", "1-sigma error of cage_msd_ratio"),
+    "cage_broken_probability": ((), "1", "P(cage_msd_ratio > 1)"),
+    "tau_alpha": ((), "T", "lag where F_s(2 pi / a, t) of the cage-relative displacements falls below 1/e"),
+    "D_s_cr_late": ((), "L2/T", "self-diffusion from the cage-relative MSD past the cage breaking"),
+    "D_s_cr_late_err": ((), "L2/T", "1-sigma error of D_s_cr_late"),
+    "D_eff_cr_late": ((), "1", "D_s_cr_late / D0 (with v0 and Dr)"),
+    "D_eff_cr_late_err": ((), "1", "1-sigma error of D_eff_cr_late"),
+    "cage_msd": (("cage_lag",), "L2", "cage-relative mean squared displacement of the tracked cells"),
+    "F_s": (("cage_lag",), "1", "self-intermediate scattering function F_s(2 pi / a, t) of the cage-relative "
+                                "displacements"),
 }
 #: Per-frame series averaged over the movie (``<name>_movie`` and ``<name>_movie_err``).
 AVERAGED = ("q_mean", "q_frac_above", "rho_d", "largest_cluster_fraction", "psi6")
@@ -87,9 +99,11 @@ for _name in AVERAGED:
                                                 "(NaN with fewer than 4 frames)")
 #: Movie labels (``<name>_movie`` int8 flags with ``_confidence`` and ``_reason``; :mod:`fcsweep.measure.labels`).
 LABELS = {"percolated": "percolation label of the movie: rho_d_movie > percolation_threshold with its error",
-          "phase": "phase label of the movie: plain D_eff test (solid if D_eff < 1e-3, else soft fluid if "
-                   "q_mean_movie > 3.81, else fluid); unknown without --v0 and --Dr"}
-_MOVIE = ("msd", "n_tracked", "D_s", "D_s_err", "D_s_diffusive", "D_eff", "D_eff_err",
+          "phase": "phase label of the movie: the simulations' rule with v0 and Dr; without them broken cages "
+                   "alone (fluid or soft fluid from q_mean_movie > 3.81), intact cages undetermined"}
+_CAGE = ("neighbour_spacing", "cage_msd_ratio", "cage_msd_ratio_err", "cage_broken_probability", "tau_alpha",
+         "D_s_cr_late", "D_s_cr_late_err", "D_eff_cr_late", "D_eff_cr_late_err", "cage_msd", "F_s")
+_MOVIE = ("msd", "n_tracked", "D_s", "D_s_err", "D_s_diffusive", "D_eff", "D_eff_err", *_CAGE,
           *(f"{n}_movie{e}" for n in AVERAGED for e in ("", "_err")))
 
 _CELL_INT = {"label": 0, "n_sides": -1, "defect": -1}
@@ -211,6 +225,12 @@ def measure(labels, pixel_size=None, frame_interval=None, *, modes: int = 6, len
         msd = np.full(T, np.nan)
     xs, ys = np.where(cut, np.nan, data["x"].values), np.where(cut, np.nan, data["y"].values)
     diff = tracked_diffusion(t, xs, ys, v0=v0, Dr=Dr) if (track and even) else tracked_diffusion(t[:1], xs[:1], ys[:1])
+    bounds = (0.0, shape[1] * px, 0.0, shape[0] * py)
+    cb, cage = tracked_cages(t, xs, ys, bounds, float(np.mean(data["n_cells"].values - data["n_edge_cut"].values / 2)), v0=v0, Dr=Dr) \
+        if (track and even) else (None, tracked_cages(t[:1], xs[:1], ys[:1], bounds, 1.0)[1])
+    diff.update(cage)
+    lags_cr = cb.lags if cb is not None else np.zeros(0)
+    diff.update(cage_msd=cb.cr_msd if cb is not None else np.zeros(0), F_s=cb.F_s if cb is not None else np.zeros(0))
     for name in AVERAGED:
         series = data[name].values
         avg = time_average(series, equilibrate=False) if np.all(np.isfinite(series)) else None
@@ -228,7 +248,9 @@ def measure(labels, pixel_size=None, frame_interval=None, *, modes: int = 6, len
         "time": ("time", t, {"units": time_unit, "long_name": "time of the frame"}),
         "mode": ("mode", np.arange(2, int(modes) + 1, dtype=np.int32), {"units": "1", "long_name": "Fourier mode number n"}),
         "lag_time": ("lag", np.arange(T) * (dt[0] if T > 1 else 0.0),
-                     {"units": time_unit, "long_name": "lag time of the msd"})})
+                     {"units": time_unit, "long_name": "lag time of the msd"}),
+        "cage_lag_time": ("cage_lag", np.asarray(lags_cr, dtype=float),
+                          {"units": time_unit, "long_name": "lag time of cage_msd and F_s"})})
     ds.attrs.update(Conventions="CF-1.8", title="fcsweep measure: shape and defect observables of a segmented "
                     "cell monolayer", pixel_size_x=px, pixel_size_y=py, length_unit=length_unit,
                     time_unit=time_unit, modes=int(modes), neighbours=neighbours,

@@ -11,10 +11,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from fcsweep.analysis.diffusion import effective_diffusion, estimate_diffusion
+from fcsweep.analysis.cage import cage_breaking, neighbour_spacing
+from fcsweep.analysis.diffusion import effective_diffusion, estimate_diffusion, free_diffusion
+from fcsweep.analysis.voronoi_open import open_voronoi
 from fcsweep.analysis.msd import msd_curve
 
-__all__ = ["link_frames", "tracked_msd", "tracked_diffusion", "MIN_OVERLAP"]
+__all__ = ["link_frames", "tracked_msd", "tracked_diffusion", "tracked_cages", "MIN_OVERLAP"]
 
 #: Overlap, as a fraction of the smaller of two masks, above which they may be one cell.
 MIN_OVERLAP = 0.5
@@ -122,3 +124,46 @@ def tracked_diffusion(t: np.ndarray, x: np.ndarray, y: np.ndarray, *, v0=None, D
     if v0 is not None and Dr:
         out["D_eff"], out["D_eff_err"] = effective_diffusion(est.D, est.D_err, float(v0), float(Dr))
     return out
+
+
+def tracked_cages(t: np.ndarray, x: np.ndarray, y: np.ndarray, bounds, n_cells: float, *, v0=None, Dr=None):
+    """Cage-relative MSD, ``F_s``, ``tau_alpha`` and the cage test of the tracked cells.
+
+    The simulations' estimator (:func:`fcsweep.analysis.cage.cage_breaking`) with the
+    Voronoi neighbours of the tracked cells in the open field of view
+    (:func:`fcsweep.analysis.voronoi_open.open_voronoi`) at each time origin, and the
+    neighbour spacing ``a`` of the density of all cells (``n_cells`` per field of view, a
+    cell cut by the edge counted as half).
+
+    Returns
+    -------
+    CageBreaking or None
+        None without three frames and four tracks present in every frame.
+    scalars : dict
+        ``neighbour_spacing``, ``cage_msd_ratio`` (+ ``_err``), ``cage_broken_probability``,
+        ``tau_alpha``, ``D_s_cr_late`` (+ ``_err``, length^2 / time) and ``D_eff_cr_late``
+        (+ ``_err``, with ``v0`` and ``Dr``).
+    """
+    nan = float("nan")
+    keys = ("neighbour_spacing", "cage_msd_ratio", "cage_msd_ratio_err", "cage_broken_probability", "tau_alpha",
+            "D_s_cr_late", "D_s_cr_late_err", "D_eff_cr_late", "D_eff_cr_late_err")
+    out = dict.fromkeys(keys, nan)
+    full = np.all(np.isfinite(x), axis=0) & np.all(np.isfinite(y), axis=0)
+    if x.shape[0] < 3 or full.sum() < 4:
+        return None, out
+    x0, x1, y0, y1 = bounds
+    pos = np.stack([x[:, full] - x0, y[:, full] - y0], axis=-1)
+    box = (x1 - x0, y1 - y0)
+
+    def bonds(p):
+        g = open_voronoi(p, (0.0, box[0], 0.0, box[1]))
+        return g.i, g.j
+
+    cb = cage_breaking(t, pos, box, spacing=neighbour_spacing(max(n_cells, 1.0), box), neighbours=bonds)
+    D0 = free_diffusion(v0, Dr) if (v0 is not None and Dr) else nan
+    out.update(neighbour_spacing=cb.spacing, cage_msd_ratio=cb.ratio, cage_msd_ratio_err=cb.ratio_err,
+               cage_broken_probability=cb.p_broken, tau_alpha=cb.tau_alpha, D_s_cr_late=cb.D_late,
+               D_s_cr_late_err=cb.D_late_err)
+    if np.isfinite(D0) and D0 > 0:
+        out.update(D_eff_cr_late=cb.D_late / D0, D_eff_cr_late_err=cb.D_late_err / D0)
+    return cb, out
