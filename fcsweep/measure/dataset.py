@@ -226,7 +226,8 @@ def measure(labels, pixel_size=None, frame_interval=None, *, modes: int = 6, len
     xs, ys = np.where(cut, np.nan, data["x"].values), np.where(cut, np.nan, data["y"].values)
     diff = tracked_diffusion(t, xs, ys, v0=v0, Dr=Dr) if (track and even) else tracked_diffusion(t[:1], xs[:1], ys[:1])
     bounds = (0.0, shape[1] * px, 0.0, shape[0] * py)
-    cb, cage = tracked_cages(t, xs, ys, bounds, float(np.mean(data["n_cells"].values - data["n_edge_cut"].values / 2)), v0=v0, Dr=Dr) \
+    n_eff = float(np.mean(data["n_cells"].values - data["n_edge_cut"].values / 2))  # a cut cell counts half
+    cb, cage = tracked_cages(t, xs, ys, bounds, n_eff, v0=v0, Dr=Dr) \
         if (track and even) else (None, tracked_cages(t[:1], xs[:1], ys[:1], bounds, 1.0)[1])
     diff.update(cage)
     lags_cr = cb.lags if cb is not None else np.zeros(0)
@@ -246,7 +247,8 @@ def measure(labels, pixel_size=None, frame_interval=None, *, modes: int = 6, len
         data[f"{name}_movie_reason"] = xr.Variable((), str(reason), {"long_name": f"why {name}_movie is what it is"})
     ds = xr.Dataset(data, coords={
         "time": ("time", t, {"units": time_unit, "long_name": "time of the frame"}),
-        "mode": ("mode", np.arange(2, int(modes) + 1, dtype=np.int32), {"units": "1", "long_name": "Fourier mode number n"}),
+        "mode": ("mode", np.arange(2, int(modes) + 1, dtype=np.int32),
+                 {"units": "1", "long_name": "Fourier mode number n"}),
         "lag_time": ("lag", np.arange(T) * (dt[0] if T > 1 else 0.0),
                      {"units": time_unit, "long_name": "lag time of the msd"}),
         "cage_lag_time": ("cage_lag", np.asarray(lags_cr, dtype=float),
