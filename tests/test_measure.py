@@ -147,14 +147,15 @@ def test_open_voronoi_interior_cells_agree_with_the_periodic_tessellation():
 
 
 def test_tracking_by_overlap_and_msd():
-    """Cells moved by small hard-disc moves between two frames, labels shuffled in the second:
-    every uncut cell keeps its index, its displacement is the exact one within half a pixel
-    (0.23 px measured), and the MSD is the exact centroids' within 2 % (0.5 % measured)."""
+    """Cells moved by small hard-disc moves (up to 0.72 R0 in all) between two frames, labels
+    shuffled in the second: every uncut cell keeps its index, its displacement is the exact
+    one within half a pixel (0.26 px measured), the MSD is the exact centroids' within 2 %
+    (0.5 % measured), and the neighbour changes are those of the exact centroids (one T1)."""
     rng = np.random.default_rng(7)
     pos, theta, a, b, fov = _scene(12, 4, 3.0, 10)
     pos1 = pos.copy()
     rmax = bounding_radius(a, b)
-    for k in rng.integers(len(pos), size=3 * len(pos)):  # moves of <= 0.3 R0 that keep cells apart
+    for k in rng.integers(len(pos), size=8 * len(pos)):  # moves of <= 0.3 R0 that keep cells apart
         trial = pos1[k] + rng.uniform(-0.3, 0.3, 2)
         d = np.hypot(*(pos1 - trial).T)
         d[k] = np.inf
@@ -171,9 +172,27 @@ def test_tracking_by_overlap_and_msd():
     assert np.all(ds.label.values[1, ok] == perm[cell + 1])  # the same cell under its new label
     disp = np.stack([ds.x.values[1, ok] - ds.x.values[0, ok], ds.y.values[1, ok] - ds.y.values[0, ok]], 1)
     assert np.abs(true[cell]).max() > 0.2 and (ds.msd.values[1] > 0.01)  # they did move
-    assert np.abs(disp - true[cell]).max() < 0.05  # half a pixel (measured 0.023)
+    assert np.abs(disp - true[cell]).max() < 0.05  # half a pixel (measured 0.026)
     d = true[cell] - true[cell].mean(0)
     assert ds.msd.values[1] == pytest.approx((d ** 2).sum(1).mean(), rel=0.02)
+    # neighbour changes: those of the exact centroids' open Voronoi, on the same cells
+    from fcsweep.measure.tracking import bond_changes
+
+    bounds = (0.0, fov[1] - fov[0], 0.0, fov[3] - fov[2])
+    bonds = []
+    for k, p in enumerate((pos, pos1)):
+        lab = ds.label.values[k]
+        ok_k = lab > 0
+        ref = np.stack([ds.x.values[k, ok_k], ds.y.values[k, ok_k]], 1)
+        uncut = ds.edge_cut.values[k, ok_k] == 0
+        cell_k = lab[ok_k] - 1 if k == 0 else np.argsort(perm)[lab[ok_k]] - 1
+        ref[uncut] = (_centroids(p, theta, a, b) - [fov[0], fov[2]])[cell_k[uncut]]
+        v = open_voronoi(ref, bounds)
+        both = v.interior[v.i] & v.interior[v.j] & (v.i < v.j)
+        bonds.append((np.stack([v.i[both], v.j[both]], 1), np.flatnonzero(ok_k)))
+    exact = bond_changes(bonds[0][0], bonds[0][1], bonds[1][0], bonds[1][1])
+    assert exact > 0 and abs(ds.bond_change_fraction.values[1] - exact) < 0.005  # one T1 among ~200 bonds
+    assert np.isnan(ds.bond_change_fraction.values[0])
 
 
 def test_diffusion_of_tracked_cells():

@@ -25,7 +25,7 @@ from fcsweep.measure.frames import PERCOLATION_THRESHOLD, frame_statistics
 from fcsweep.measure.readers import MeasureInputError, iter_frames
 from fcsweep.measure.contacts import contact_graph
 from fcsweep.measure.labels import movie_labels
-from fcsweep.measure.tracking import link_frames, tracked_cages, tracked_diffusion, tracked_msd
+from fcsweep.measure.tracking import bond_changes, link_frames, tracked_cages, tracked_diffusion, tracked_msd
 from fcsweep.model.shape import Q_STAR
 
 __all__ = ["measure", "write_measure", "VARIABLES", "OUTPUT_NAME"]
@@ -66,6 +66,8 @@ VARIABLES = {
     "percolated": (_T, "1", "1 if rho_d > percolation_threshold"),
     "spanning": (_T, "1", "1 if a defect cluster touches two opposite edges of the field of view"),
     "psi6": (_T, "1", "global hexatic order |mean psi6_i| over the classified cells"),
+    "bond_change_fraction": (_T, "1", "fraction of the neighbour bonds between cells classified in this and the "
+                                      "previous frame that changed (NaN in the first frame)"),
     "msd": (("lag",), "L2", "drift-subtracted mean squared displacement of the cells tracked, uncut, through "
                             "every frame "
                             "(NaN for unequally spaced frames)"),
@@ -178,6 +180,7 @@ def measure(labels, pixel_size=None, frame_interval=None, *, modes: int = 6, len
     frame_interval, length_unit, time_unit = cal.frame_interval, cal.length_unit, cal.time_unit
     per_cell, per_frame, shape = [], [], None
     prev, prev_tracks, next_id = None, {}, 0
+    prev_bonds = prev_index = None
     for _, frame in iter_frames(labels):
         shape = frame.shape
         cells = measure_cells(frame, (px, py), int(modes))
@@ -190,6 +193,10 @@ def measure(labels, pixel_size=None, frame_interval=None, *, modes: int = 6, len
         graph = contact_graph(frame, cells["label"]) if neighbours == "contact" else None
         stats = frame_statistics(cells, (0.0, shape[1] * px, 0.0, shape[0] * py), percolation_threshold, graph)
         cells.update(n_sides=stats.pop("n_sides"), defect=stats.pop("defect"))
+        bonds = stats.pop("bonds")
+        stats["bond_change_fraction"] = bond_changes(prev_bonds, prev_index, bonds, cells["index"]) \
+            if (track and prev_bonds is not None) else np.nan
+        prev_bonds, prev_index = bonds, cells["index"]
         per_cell.append(cells)
         per_frame.append(stats)
     T = len(per_cell)

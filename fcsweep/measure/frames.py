@@ -64,7 +64,8 @@ def frame_statistics(cells: dict, bounds, threshold: float = PERCOLATION_THRESHO
     dict
         The :data:`FRAME_FIELDS` (floats; NaN where undefined, e.g. no classified cell),
         plus per-cell ``n_sides`` (int, -1 for boundary cells) and ``defect`` (int8: 1
-        defect, 0 not, -1 boundary).
+        defect, 0 not, -1 boundary), and ``bonds`` (int, (B, 2)): the neighbour pairs
+        ``i < j`` of classified cells.
     """
     pos = np.stack([cells["x"], cells["y"]], axis=1)
     n = pos.shape[0]
@@ -82,6 +83,8 @@ def frame_statistics(cells: dict, bounds, threshold: float = PERCOLATION_THRESHO
     out.update(n_boundary=n - n_in, n_classified=n_in)
     out["n_sides"] = np.where(inner, vor.n_sides, -1)
     out["defect"] = np.where(inner, defect.astype(np.int8), np.int8(-1)).astype(np.int8)
+    both = inner[vor.i] & inner[vor.j] & (vor.i < vor.j)
+    out["bonds"] = np.stack([vor.i[both], vor.j[both]], axis=1)
     if n_in == 0:
         return out
     comp = _clusters(defect, vor.i, vor.j)
