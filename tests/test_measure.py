@@ -304,6 +304,17 @@ def test_readers_give_the_same_dataset(stack, tmp_path):
         _same(ref, disk.load())
 
 
+def test_time_stamps(stack):
+    """Per-frame time stamps replace the interval; unequal spacing leaves the MSD out (its
+    window average needs equal lags), non-increasing stamps are refused."""
+    ds = measure(list(stack) + [stack[0]], times=[0.0, 2.0, 3.0])
+    assert list(ds.time.values) == [0.0, 2.0, 3.0] and np.all(np.isnan(ds.msd.values))
+    even = measure(list(stack) + [stack[0]], times=[1.0, 2.0, 3.0])
+    assert even.msd.values[0] == 0 and np.isfinite(even.msd.values[1])
+    with pytest.raises(MeasureInputError, match="increasing"):
+        measure(stack, times=[1.0, 1.0])
+
+
 def test_calibration_from_imagej_and_ome_metadata(stack, tmp_path):
     """Pixel size, interval and units come from ImageJ / OME metadata; an option that
     contradicts them exits 2, one that agrees (in another spelling) is accepted."""
