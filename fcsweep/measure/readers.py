@@ -112,7 +112,8 @@ class _SegUnpickler(pickle.Unpickler):
 
 
 def read_seg_npy(path) -> np.ndarray:
-    """The ``masks`` array of a Cellpose ``_seg.npy`` file, read without unpickling code.
+    """The ``masks`` array of a Cellpose ``_seg.npy`` file, read without unpickling code
+    (a ``.npy`` file of a plain array is returned memory-mapped).
 
     Raises
     ------
@@ -130,9 +131,8 @@ def read_seg_npy(path) -> np.ndarray:
                 shape, _, dtype = np.lib.format.read_array_header_2_0(fh)
         except ValueError as exc:
             raise MeasureInputError(f"{path}: not a .npy file ({exc})") from None
-        if dtype != object:
-            arr = np.load(path, allow_pickle=False, mmap_mode="r")
-            return np.asarray(arr)
+        if dtype != object:  # a plain array: memory-mapped, read frame by frame
+            return np.load(path, allow_pickle=False, mmap_mode="r")
         try:
             obj = _SegUnpickler(io.BufferedReader(fh)).load()
         except (pickle.UnpicklingError, EOFError, AttributeError, TypeError, ValueError) as exc:
@@ -201,7 +201,10 @@ def _frames_of_file(path: Path):
     elif name.endswith(".png"):
         yield from _frames_of_png(path)
     elif name.endswith(".npy"):
-        yield from _frames_of_array(read_seg_npy(path), str(path))
+        arr = read_seg_npy(path)
+        if arr.ndim >= 2:
+            _check_size(arr.shape[-2:], str(path))
+        yield from _frames_of_array(arr, str(path))
     else:
         raise MeasureInputError(f"{path}: unknown label image format (TIFF, PNG or Cellpose _seg.npy)")
 
