@@ -1,5 +1,6 @@
 """Command line, in the order of the work: ``fcsweep validate | bench | simulate | status |
-analyze | aggregate | plot | movie | export | refine``, and the helpers ``list-runs`` and ``compile``.
+analyze | aggregate | plot | movie | export | refine``, ``measure`` for segmented images of
+real cells, and the helpers ``list-runs`` and ``compile``.
 
 Every command takes an optional CONFIG (a sweep YAML file); without one it uses the
 built-in demo sweep (``fcsweep/data/smoke.yaml``, identical to ``configs/smoke.yaml``),
@@ -669,7 +670,8 @@ def export(run, config, output, fmt, frames, out_path, unwrapped, polygons, imag
               help="Rotational diffusion in 1 / --time-unit, if known (active-Brownian fit of D_s).")
 def measure(images, output, pixel_size, frame_interval, times, length_unit, time_unit, modes, percolation_threshold,
             neighbours, v0, Dr):
-    """Shape index, Voronoi defects, their clusters and hexatic order of segmented cell images.
+    """The simulations' observables of segmented cell images: q, Voronoi defects and their
+    clusters, psi6; over a movie tracks, MSD, D_s, cages and the percolation and phase labels.
 
     IMAGES: integer label images (0 = background, 1..n = cells): a TIFF (2-D or T x Y x X),
     PNG files, Cellpose _seg.npy files, or directories of them (frames sorted by name).
