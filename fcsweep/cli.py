@@ -1,5 +1,6 @@
 """Command line, in the order of the work: ``fcsweep validate | bench | simulate | status |
-analyze | aggregate | plot | movie | export | refine``, and the helpers ``list-runs`` and ``compile``.
+analyze | aggregate | plot | movie | export | refine``, ``measure`` for segmented images of
+real cells, and the helpers ``list-runs`` and ``compile``.
 
 Every command takes an optional CONFIG (a sweep YAML file); without one it uses the
 built-in demo sweep (``fcsweep/data/smoke.yaml``, identical to ``configs/smoke.yaml``),
@@ -52,7 +53,7 @@ def _load(config: str | None, output: str | None = None, *, to_run: bool = False
 
 #: Order of the commands in ``--help``: the order of the work, then the helpers.
 COMMAND_ORDER = ("validate", "bench", "simulate", "status", "analyze", "aggregate", "plot", "refine", "movie",
-                 "export", "list-runs", "compile")
+                 "export", "measure", "list-runs", "compile")
 
 
 class WorkflowGroup(click.Group):
@@ -130,6 +131,9 @@ def cli() -> None:
       fcsweep analyze CONFIG      observables of every finished run
       fcsweep aggregate CONFIG    one phase_diagram.nc
       fcsweep plot CONFIG         figures; `fcsweep movie RUN CONFIG` for a movie
+
+    \b
+    Experiments: fcsweep measure IMAGES  the same observables from segmented images
     """
 
 
@@ -503,13 +507,20 @@ def aggregate(config, output):
 @click.option("--run", "run", default=None, help="Plot one run (id or index) instead of the sweep.")
 @click.option("--frame", type=int, default=-1, show_default=True, help="Frame for snapshot plots.")
 @click.option("--outdir", type=click.Path(file_okay=False), default=None, help="Where figures go.")
-def plot(config, output, run, frame, outdir):
+@click.option("--measured", multiple=True, type=click.Path(),
+              help="A measure.nc of `fcsweep measure` (or its directory) to draw beside the simulated points "
+                   "on the <q> - rho_d plane (repeatable).")
+def plot(config, output, run, frame, outdir, measured):
     """Figures of the sweep (phase diagram and companions) or a snapshot of one run."""
     _headless()
     from fcsweep.analysis.figures import NothingToPlot, plot_sweep
     from fcsweep.analysis.pipeline import DATASET_FILE
     from fcsweep.io.failures import results_command
 
+    missing = [m for m in measured if not (Path(m).is_file() or (Path(m) / "measure.nc").is_file())]
+    if missing:
+        _say(f"--measured {missing[0]}: no measure.nc there (run `fcsweep measure` first)")
+        sys.exit(2)
     cfg = _load(config, output)
     out = _announce(cfg)
     if run is not None:
@@ -520,7 +531,7 @@ def plot(config, output, run, frame, outdir):
             _nothing(f"nothing to plot in {out}: no phase_diagram.nc, {why} ({_wrong_dir_hint(config, output)})")
     try:
         with results_command(_say, "--outdir"):
-            paths = plot_sweep(cfg, run=run, frame=frame, outdir=Path(outdir) if outdir else None)
+            paths = plot_sweep(cfg, run=run, frame=frame, outdir=Path(outdir) if outdir else None, measured=measured)
     except NothingToPlot as exc:
         _nothing(str(exc))
     for p in paths:
@@ -635,6 +646,58 @@ def export(run, config, output, fmt, frames, out_path, unwrapped, polygons, imag
         sys.exit(2)
     except TrajectoryError as exc:
         _nothing(str(exc))
+    click.echo(str(path))
+
+
+@cli.command()
+@click.argument("images", nargs=-1, required=False, type=click.Path())
+@click.option("--output", "-o", type=click.Path(file_okay=False), default="fcsweep-measure", show_default=True,
+              help="Output directory (measure.nc).")
+@click.option("--pixel-size", default=None, help="Pixel size X or X,Y in --length-unit [TIFF metadata, else 1].")
+@click.option("--frame-interval", type=click.FloatRange(min=0, min_open=True), default=None,
+              help="Time between frames in --time-unit [TIFF metadata, else 1].")
+@click.option("--times", default=None, help="Comma-separated time stamps of the frames (instead of --frame-interval).")
+@click.option("--length-unit", default=None, help="CF/UDUNITS length unit, e.g. um [TIFF metadata, else 1].")
+@click.option("--time-unit", default=None, help="CF/UDUNITS time unit, e.g. min [TIFF metadata, else 1].")
+@click.option("--modes", type=click.IntRange(min=2, max=16), default=6, show_default=True,
+              help="Highest Fourier mode M of the contour fit.")
+@click.option("--percolation-threshold", type=click.FloatRange(0, 1), default=0.5, show_default=True,
+              help="rho_d above which a frame is percolated.")
+@click.option("--neighbours", type=click.Choice(["voronoi", "contact"]), default="voronoi", show_default=True,
+              help="Defect graph: Voronoi of the centroids (the paper's rule) or touching masks.")
+@click.option("--v0", type=click.FloatRange(min=0), default=None,
+              help="Cell speed in --length-unit per --time-unit, if known (with --Dr: D_eff).")
+@click.option("--Dr", "Dr", type=click.FloatRange(min=0, min_open=True), default=None,
+              help="Rotational diffusion in 1 / --time-unit, if known (active-Brownian fit of D_s).")
+def measure(images, output, pixel_size, frame_interval, times, length_unit, time_unit, modes, percolation_threshold,
+            neighbours, v0, Dr):
+    """The simulations' observables of segmented cell images: q, Voronoi defects and their
+    clusters, psi6; over a movie tracks, MSD, D_s, cages and the percolation and phase labels.
+
+    IMAGES: integer label images (0 = background, 1..n = cells): a TIFF (2-D or T x Y x X),
+    PNG files, Cellpose _seg.npy files, or directories of them (frames sorted by name).
+    Without IMAGES: a built-in example, 12 frames of 64 simulated cells (lengths in R0).
+    Pixel size, frame interval and units come from the options or from OME / ImageJ
+    metadata; where both exist they must agree.  Writes OUTPUT/measure.nc
+    (docs/measure.md).  TIFF needs the `measure` extra:
+    pip install 'fcsweep[measure]'.
+    """
+    from fcsweep.io.failures import results_command
+    from fcsweep.measure.command import measure_to_dir
+    from fcsweep.measure.readers import MeasureInputError
+
+    if not images:
+        _say("no IMAGES: measuring the built-in example (64 simulated cells, eta = 0.01, v0 = 0.06, "
+             "10 px per R0; lengths in R0)")
+    try:
+        with results_command(_say, "--output"):
+            path = measure_to_dir(images, output, pixel_size=pixel_size, frame_interval=frame_interval,
+                                  length_unit=length_unit, time_unit=time_unit, times=times, modes=modes,
+                                  percolation_threshold=percolation_threshold, v0=v0, Dr=Dr,
+                                  neighbours=neighbours)
+    except (ImportError, MeasureInputError) as exc:
+        _say(str(exc))
+        sys.exit(2)
     click.echo(str(path))
 
 

@@ -50,3 +50,11 @@ def test_config_sits_on_model_and_io(path):
     allowed = ("fcsweep.config", "fcsweep.model", "fcsweep.io")
     bad = {m for m in _imports(path) if m.startswith("fcsweep.") and not m.startswith(allowed)}
     assert not bad, f"{path.name} imports {bad}"
+
+
+@pytest.mark.parametrize("path", sorted((PKG / "measure").glob("*.py")), ids=lambda p: p.name)
+def test_measure_sits_with_analysis(path):
+    """fcsweep.measure reads images with the analysis estimators: analysis, model, io and itself only."""
+    allowed = ("fcsweep.measure", "fcsweep.analysis", "fcsweep.model", "fcsweep.io")
+    bad = {m for m in _imports(path) if m.startswith("fcsweep.") and not m.startswith(allowed)}
+    assert not bad, f"{path.name} imports {bad}"

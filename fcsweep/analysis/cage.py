@@ -142,7 +142,7 @@ def _lag_frames(T: int, n: int = 16) -> np.ndarray:
 
 
 def cage_breaking(time, unwrapped, box, *, spacing: float | None = None,
-                  n_origins: int = N_ORIGINS) -> CageBreaking:
+                  n_origins: int = N_ORIGINS, neighbours=None) -> CageBreaking:
     """Cage-relative MSD against the neighbour spacing, and ``F_s`` (see module doc).
 
     Parameters
@@ -157,6 +157,9 @@ def cage_breaking(time, unwrapped, box, *, spacing: float | None = None,
         Neighbour spacing (default :func:`neighbour_spacing`).
     n_origins : int
         Time origins averaged.
+    neighbours : callable, optional
+        ``neighbours(pos) -> (i, j)``, the bonds of the cells at a time origin; default
+        the periodic Voronoi of ``box`` (an image passes its open-boundary graph).
 
     Returns
     -------
@@ -177,7 +180,7 @@ def cage_breaking(time, unwrapped, box, *, spacing: float | None = None,
     side = np.floor(np.mod(x[0], L) / L * BLOCKS_PER_SIDE).astype(int) % BLOCKS_PER_SIDE
     block = side[:, 0] * BLOCKS_PER_SIDE + side[:, 1]
     shells = {}
-    msd, fs, per_cell, inv_n = _cage_curves(x, lags, L, k, n_origins, shells)
+    msd, fs, per_cell, inv_n = _cage_curves(x, lags, L, k, n_origins, shells, neighbours)
     labels = np.unique(block)
 
     def by_block(pc):
@@ -199,7 +202,7 @@ def cage_breaking(time, unwrapped, box, *, spacing: float | None = None,
         def add(more):  # the curves at more lags (frames), merged in lag order
             more = np.setdiff1d(np.unique(np.round(more).astype(int)), curves[0])
             if more.size:
-                m2, f2, p2, _ = _cage_curves(x, more, L, k, n_origins, shells)
+                m2, f2, p2, _ = _cage_curves(x, more, L, k, n_origins, shells, neighbours)
                 order = np.argsort(np.concatenate([curves[0], more]))
                 for q, new in enumerate((more, m2, f2, by_block(p2))):
                     curves[q] = np.concatenate([curves[q], new])[order]
@@ -236,7 +239,7 @@ def cage_breaking(time, unwrapped, box, *, spacing: float | None = None,
                         float(D_late), float(D_late_err), float(inv_n))
 
 
-def _cage_curves(x, lags, L, k, n_origins, shells):
+def _cage_curves(x, lags, L, k, n_origins, shells, neighbours=None):
     """Cage-relative MSD, ``F_s`` and per-cell mean squares at ``lags`` (frames), and
     ``<1/n_i>`` over the cells and origins; ``shells`` caches the Voronoi shells by origin."""
     T, N = x.shape[:2]
@@ -247,8 +250,12 @@ def _cage_curves(x, lags, L, k, n_origins, shells):
         origins = np.unique(np.linspace(0, T - 1 - m, min(n_origins, T - m)).astype(int))
         for o in origins:
             if o not in shells:
-                vn = voronoi_neighbors(np.mod(x[o], L), L)
-                shells[o] = (vn.i, vn.j, np.maximum(np.bincount(vn.i, minlength=N), 1)[:, None])
+                if neighbours is None:
+                    vn = voronoi_neighbors(np.mod(x[o], L), L)
+                    bi, bj = vn.i, vn.j
+                else:
+                    bi, bj = neighbours(x[o])
+                shells[o] = (bi, bj, np.maximum(np.bincount(bi, minlength=N), 1)[:, None])
             i, j, deg = shells[o]
             d = x[o + m] - x[o]
             nb = np.zeros((N, 2))

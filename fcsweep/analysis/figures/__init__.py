@@ -86,9 +86,11 @@ class NothingToPlot(RuntimeError):
     """The sweep has no analysed run, so every figure would be blank."""
 
 
-def plot_sweep(config, *, run=None, frame=-1, outdir=None) -> list[Path]:
+def plot_sweep(config, *, run=None, frame=-1, outdir=None, measured=()) -> list[Path]:
     """Sweep figures (aggregating first if needed, :func:`fcsweep.analysis.results.sweep_dataset`),
-    or the snapshot of run ``run``.
+    or the snapshot of run ``run``.  With ``measured`` (paths of ``measure.nc`` files or of
+    directories holding one), also ``measured_q_rho``: the movies beside the simulated
+    points on the <q> - rho_d plane (:func:`fcsweep.analysis.figures.measured.measured_plane`).
 
     Raises
     ------
@@ -102,4 +104,17 @@ def plot_sweep(config, *, run=None, frame=-1, outdir=None) -> list[Path]:
     ds = sweep_dataset(config)
     if not has_analysed_run(ds):
         raise NothingToPlot(f"no analysed run in {config.output}: run `fcsweep analyze` first")
-    return plot_dataset(ds, outdir)
+    out = plot_dataset(ds, outdir)
+    if measured:
+        import xarray as xr
+
+        from fcsweep.analysis.figures.measured import measured_plane
+
+        files = [Path(p) / "measure.nc" if Path(p).is_dir() else Path(p) for p in measured]
+        sets = []
+        for f in files:
+            with xr.open_dataset(f) as m:
+                sets.append(m.load())
+        out += save_figure(measured_plane(ds, sets, names=[f.parent.name if f.name == "measure.nc" else f.stem
+                                                           for f in files]), outdir / "measured_q_rho")
+    return out

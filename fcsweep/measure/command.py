@@ -1,0 +1,67 @@
+"""The work of ``fcsweep measure``: parse the unit options, measure, write ``OUT/measure.nc``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from fcsweep.measure.dataset import measure, write_measure
+from fcsweep.measure.readers import MeasureInputError
+
+__all__ = ["parse_pixel_size", "parse_times", "measure_to_dir", "EXAMPLE", "EXAMPLE_PIXEL_SIZE"]
+
+#: The built-in example: 12 frames of 64 cells simulated at eta = 0.01, v0 = 0.06, 1 time
+#: unit apart, rendered at 10 px per R0 (benchmarks/measure_example.py writes it).
+EXAMPLE = Path(__file__).resolve().parent.parent / "data" / "measure_example.npy"
+#: Pixel size of the example in units of R0.
+EXAMPLE_PIXEL_SIZE = "0.1"
+
+
+def parse_pixel_size(text: str | None):
+    """``"X"`` or ``"X,Y"`` as (px, py), None for None; :class:`MeasureInputError` otherwise."""
+    if text is None:
+        return None
+    try:
+        parts = [float(p) for p in str(text).split(",")]
+    except ValueError:
+        parts = []
+    if len(parts) not in (1, 2) or not all(p > 0 and p < float("inf") for p in parts):
+        raise MeasureInputError(f"--pixel-size must be X or X,Y with positive numbers, got {text!r}")
+    return (parts[0], parts[-1])
+
+
+def parse_times(text: str | None):
+    """Comma-separated time stamps, or None."""
+    if not text:
+        return None
+    try:
+        return [float(t) for t in text.split(",")]
+    except ValueError:
+        raise MeasureInputError(f"--times must be comma-separated numbers, got {text!r}") from None
+
+
+def measure_to_dir(images, out, *, pixel_size: str | None = None, frame_interval: float | None = None,
+                   length_unit: str | None = None, time_unit: str | None = None, times: str | None = None,
+                   modes: int = 6,
+                   percolation_threshold: float = 0.5, v0: float | None = None, Dr: float | None = None,
+                   neighbours: str = "voronoi") -> Path:
+    """Measure ``images`` (paths) and write ``out/measure.nc``; None options come from the
+    TIFF's metadata or default to 1 (:func:`fcsweep.measure.calibration.resolve`).
+    Without images, the built-in :data:`EXAMPLE` (lengths in R0, times in model units).
+
+    Raises
+    ------
+    MeasureInputError
+        Unusable input or options.
+    ImportError
+        A reader of the ``measure`` extra is missing.
+    fcsweep.io.failures.WriteFailure
+        The file could not be written.
+    """
+    if not images:
+        images = [EXAMPLE]
+        pixel_size = pixel_size or EXAMPLE_PIXEL_SIZE
+    ds = measure(list(images), parse_pixel_size(pixel_size), frame_interval, modes=modes,
+                 length_unit=length_unit, time_unit=time_unit, times=parse_times(times),
+                 percolation_threshold=percolation_threshold, v0=v0, Dr=Dr, neighbours=neighbours)
+    ds.attrs["source"] = " ".join(str(p) for p in images)
+    return write_measure(ds, out)

@@ -1,0 +1,261 @@
+"""Label images in: TIFF stacks, PNG sequences or directories, Cellpose ``_seg.npy``,
+integer arrays and iterators of frames, each checked as it is read.
+
+A label image is a 2-D integer array, 0 = background and 1 ... n = cells.  Frames are
+yielded one at a time, so a long stack is never held in memory whole.  Broken input
+raises :class:`MeasureInputError` with one line that says what is wrong and where.
+
+Cellpose's ``_seg.npy`` is a pickled dict; it is read with a restricted unpickler that
+builds only numpy arrays, dtypes and scalars and plain containers, so a crafted file
+cannot run code.  Only its ``masks`` entry is used.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import pickle
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["MeasureInputError", "iter_frames", "read_seg_npy", "check_frame", "available_memory",
+           "FRAME_MEMORY_FACTOR", "IMAGE_SUFFIXES"]
+
+#: Bytes of work memory per pixel the measurement of one frame needs, as a multiple of the
+#: int64 label frame (the frame, the cropped masks and the contour arrays).
+FRAME_MEMORY_FACTOR = 3
+#: File suffixes read from a directory, in the order they are tried.
+IMAGE_SUFFIXES = (".tif", ".tiff", ".png", ".npy")
+
+
+class MeasureInputError(ValueError):
+    """Input that is not a usable label image (the CLI exits 2 with its message)."""
+
+
+def _need(module: str):
+    try:
+        return __import__(module)
+    except ImportError as exc:
+        raise ImportError(f"fcsweep measure needs {module} to read this input: "
+                          "pip install 'fcsweep[measure]'") from exc
+
+
+def available_memory() -> int:
+    """Bytes of memory available now (``MemAvailable`` of /proc/meminfo, else physical pages)."""
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    try:
+        return int(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+    except (ValueError, OSError, AttributeError):
+        return 1 << 62
+
+
+def _check_size(shape, where: str) -> None:
+    need = int(np.prod(shape, dtype=np.float64)) * 8 * FRAME_MEMORY_FACTOR
+    have = available_memory()
+    if need > have:
+        raise MeasureInputError(f"{where}: a frame of {shape[0]} x {shape[1]} pixels needs about "
+                                f"{need / 2**30:.1f} GiB to measure, only {have / 2**30:.1f} GiB is available")
+
+
+def check_frame(frame, where: str, shape=None) -> np.ndarray:
+    """One frame as a 2-D int64 label array, or :class:`MeasureInputError`.
+
+    Parameters
+    ----------
+    frame : array_like
+    where : str
+        Names the frame in messages (file and index).
+    shape : tuple, optional
+        The shape of the first frame; a different shape is an error.
+    """
+    arr = np.asarray(frame)
+    if arr.ndim != 2:
+        raise MeasureInputError(f"{where}: a label frame must be 2-D, got shape {arr.shape}")
+    if shape is not None and arr.shape != tuple(shape):
+        raise MeasureInputError(f"{where}: frame of shape {arr.shape} differs from the first frame's {tuple(shape)}")
+    if arr.dtype == bool:
+        raise MeasureInputError(f"{where}: a binary mask is not a label image (0 = background, 1..n = cells); "
+                                "label its connected cells first")
+    if arr.dtype.kind == "f":
+        raise MeasureInputError(f"{where}: labels must be integers, got a {arr.dtype} image; an intensity image "
+                                "must be segmented first (Cellpose, StarDist)")
+    if arr.dtype.kind not in "iu":
+        raise MeasureInputError(f"{where}: labels must be integers, got dtype {arr.dtype}")
+    if arr.size and arr.min() < 0:
+        raise MeasureInputError(f"{where}: negative label {int(arr.min())} (0 = background, 1..n = cells)")
+    if not arr.any():
+        raise MeasureInputError(f"{where}: empty mask, no cell in the frame")
+    return arr.astype(np.int64, copy=False)
+
+
+class _SegUnpickler(pickle.Unpickler):
+    """Builds numpy arrays, dtypes and scalars and plain containers, nothing else."""
+
+    ALLOWED = {
+        ("numpy.core.multiarray", "_reconstruct"), ("numpy._core.multiarray", "_reconstruct"),
+        ("numpy.core.multiarray", "scalar"), ("numpy._core.multiarray", "scalar"),
+        ("numpy.core.numeric", "_frombuffer"), ("numpy._core.numeric", "_frombuffer"),
+        ("numpy", "ndarray"), ("numpy", "dtype"),
+    }
+
+    def find_class(self, module, name):
+        if (module, name) in self.ALLOWED:
+            return super().find_class(module, name)
+        raise pickle.UnpicklingError(f"refused to load {module}.{name}")
+
+
+def read_seg_npy(path) -> np.ndarray:
+    """The ``masks`` array of a Cellpose ``_seg.npy`` file, read without unpickling code
+    (a ``.npy`` file of a plain array is returned memory-mapped).
+
+    Raises
+    ------
+    MeasureInputError
+        Not a ``.npy`` file, a pickle that needs anything but numpy arrays and plain
+        containers, or no ``masks`` entry.
+    """
+    path = Path(path)
+    with open(path, "rb") as fh:
+        try:
+            version = np.lib.format.read_magic(fh)
+            if version == (1, 0):
+                shape, _, dtype = np.lib.format.read_array_header_1_0(fh)
+            else:
+                shape, _, dtype = np.lib.format.read_array_header_2_0(fh)
+        except ValueError as exc:
+            raise MeasureInputError(f"{path}: not a .npy file ({exc})") from None
+        if dtype != object:  # a plain array: memory-mapped, read frame by frame
+            return np.load(path, allow_pickle=False, mmap_mode="r")
+        try:
+            obj = _SegUnpickler(io.BufferedReader(fh)).load()
+        except (pickle.UnpicklingError, EOFError, AttributeError, TypeError, ValueError) as exc:
+            raise MeasureInputError(f"{path}: not a Cellpose _seg.npy file that can be read safely ({exc})") from None
+    if isinstance(obj, np.ndarray) and obj.dtype == object and obj.size == 1:
+        obj = obj.reshape(()).item()
+    if not isinstance(obj, dict) or "masks" not in obj:
+        raise MeasureInputError(f"{path}: no 'masks' entry (is it a Cellpose _seg.npy file?)")
+    return np.asarray(obj["masks"])
+
+
+def _frames_of_array(arr: np.ndarray, where: str):
+    if arr.ndim == 2:
+        yield where, arr
+    elif arr.ndim == 3:
+        for k in range(arr.shape[0]):
+            yield f"{where} frame {k}", arr[k]
+    else:
+        raise MeasureInputError(f"{where}: expected a 2-D frame or a T x Y x X stack, got shape {arr.shape}")
+
+
+def _frames_of_tiff(path: Path):
+    """Frames of a TIFF's first series, one at a time: memory-mapped when the series is stored
+    contiguous and uncompressed, else page by page."""
+    tifffile = _need("tifffile")
+    with tifffile.TiffFile(path) as tif:
+        series = tif.series[0]
+        shape = tuple(series.shape)
+        if len(shape) not in (2, 3):
+            raise MeasureInputError(f"{path}: expected a 2-D frame or a T x Y x X stack, got shape {shape}")
+        _check_size(shape[-2:], str(path))
+        if len(shape) == 2:
+            yield str(path), series.asarray()
+            return
+        if series.dataoffset is not None:
+            dtype = np.dtype(series.dtype).newbyteorder(tif.byteorder)
+            stack = np.memmap(path, dtype=dtype, mode="r", offset=series.dataoffset, shape=shape)
+            for k in range(shape[0]):
+                yield f"{path} frame {k}", np.array(stack[k])
+            del stack
+        elif len(series.pages) == shape[0]:
+            for k, page in enumerate(series.pages):
+                yield f"{path} frame {k}", page.asarray()
+        else:
+            _check_size((shape[0] * shape[1], shape[2]), str(path))
+            stack = series.asarray()
+            for k in range(shape[0]):
+                yield f"{path} frame {k}", stack[k]
+
+
+def _frames_of_png(path: Path):
+    from PIL import Image
+
+    with Image.open(path) as im:
+        _check_size((im.height, im.width), str(path))
+        if im.mode not in ("L", "I", "I;16", "I;16B", "I;16L", "P"):
+            raise MeasureInputError(f"{path}: a {im.mode} PNG is not a label image (need 8- or 16-bit grey)")
+        arr = np.asarray(im)
+    yield str(path), arr
+
+
+def _frames_of_file(path: Path):
+    name = path.name.lower()
+    if name.endswith((".tif", ".tiff")):
+        yield from _frames_of_tiff(path)
+    elif name.endswith(".png"):
+        yield from _frames_of_png(path)
+    elif name.endswith(".npy"):
+        arr = read_seg_npy(path)
+        if arr.ndim >= 2:
+            _check_size(arr.shape[-2:], str(path))
+        yield from _frames_of_array(arr, str(path))
+    else:
+        raise MeasureInputError(f"{path}: unknown label image format (TIFF, PNG or Cellpose _seg.npy)")
+
+
+def _expand(paths) -> list[Path]:
+    out = []
+    for p in paths:
+        p = Path(p)
+        if p.is_dir():
+            files = sorted(f for f in p.iterdir() if f.is_file() and f.name.lower().endswith(IMAGE_SUFFIXES))
+            if not files:
+                raise MeasureInputError(f"{p}: no TIFF, PNG or _seg.npy file in the directory")
+            out.extend(files)
+        elif p.is_file():
+            out.append(p)
+        else:
+            raise MeasureInputError(f"{p}: no such file or directory")
+    return out
+
+
+def iter_frames(labels):
+    """Yield the checked label frames of ``labels`` one at a time.
+
+    Parameters
+    ----------
+    labels : ndarray, path, list of paths, or iterable of 2-D arrays
+        A 2-D frame or T x Y x X stack; a TIFF file, a PNG file, a Cellpose ``_seg.npy``
+        or a directory of them (sorted by name: one frame per PNG / ``_seg.npy``); or an
+        iterator of frames.
+
+    Yields
+    ------
+    where : str
+        The frame's file and index, for messages.
+    frame : ndarray of int64, shape (Y, X)
+    """
+    if isinstance(labels, (str, os.PathLike)):
+        labels = [labels]
+    if isinstance(labels, np.ndarray):
+        source = _frames_of_array(labels, "labels")
+    elif isinstance(labels, (list, tuple)) and labels and all(isinstance(p, (str, os.PathLike)) for p in labels):
+        files = _expand(labels)
+        source = (item for f in files for item in _frames_of_file(f))
+    else:
+        source = ((f"frame {k}", fr) for k, fr in enumerate(labels))
+    shape = None
+    count = 0
+    for where, frame in source:
+        frame = check_frame(frame, where, shape)
+        shape = frame.shape
+        count += 1
+        yield where, frame
+    if count == 0:
+        raise MeasureInputError("no frame in the input")

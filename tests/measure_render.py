@@ -1,0 +1,97 @@
+"""Label stacks rendered from model cells, with the exact values on the same cells (not part of the package).
+
+:func:`jittered_cells` places model cells (random admissible shapes, modes 2..6) on a jittered
+triangular lattice, rejecting overlaps so that every cell's mask is its own contour;
+:func:`render` rasterises their contours at ``res`` pixels per R0 by point-in-polygon at the
+pixel centres (``(c + 1/2, r + 1/2)``), in a field of view that cuts the outer cells.
+"""
+
+import numpy as np
+from matplotlib.path import Path as MplPath
+
+from fcsweep.analysis.export import cell_contours
+from fcsweep.analysis.shapes import shape_indices
+from fcsweep.model.shape import bounding_radius, project_admissible
+
+
+def jittered_cells(n_side, rng, *, spacing=2.6, step=0.3, sweeps=0, amp=0.08, modes=6):
+    """Non-overlapping model cells (R0 = 1): pos (N, 2), theta (N,), a, b (N, M-1).
+
+    A triangular lattice of ``spacing``, then ``sweeps`` Monte Carlo sweeps of moves of
+    ``step`` times the spacing that keep the cells' bounding discs apart: a hard-disc crystal
+    or fluid, depending on the spacing, with generic (non-degenerate) Voronoi vertices.
+    """
+    xs, ys = np.meshgrid(np.arange(n_side), np.arange(n_side))
+    pos = np.stack([(xs + 0.5 * (ys % 2)).ravel() * spacing, ys.ravel() * spacing * np.sqrt(3) / 2], 1)
+    N = pos.shape[0]
+    a = rng.normal(0, amp, (N, modes - 1)) / np.arange(2, modes + 1) ** 0.5
+    b = rng.normal(0, amp, (N, modes - 1)) / np.arange(2, modes + 1) ** 0.5
+    a, b = project_admissible(a, b)[:2]
+    rmax = bounding_radius(a, b)
+    pos = pos + rng.uniform(-0.02, 0.02, pos.shape)
+    for k in rng.integers(N, size=sweeps * N):
+        trial = pos[k] + rng.uniform(-step, step, 2) * spacing
+        d = np.hypot(*(pos - trial).T)
+        d[k] = np.inf
+        if np.all(d > rmax + rmax[k] + 0.05):
+            pos[k] = trial
+    return pos, rng.uniform(0, 2 * np.pi, N), a, b
+
+
+def render(pos, theta, a, b, res, fov):
+    """Label frame of the cells at ``res`` px per R0 in ``fov = (x0, x1, y0, y1)`` (R0 units)."""
+    x0, x1, y0, y1 = fov
+    nx, ny = int(round((x1 - x0) * res)), int(round((y1 - y0) * res))
+    frame = np.zeros((ny, nx), dtype=np.int32)
+    contours = cell_contours(pos, theta, a, b, points=400)
+    for k, c in enumerate(contours):
+        cx, cy = (c[:, 0] - x0) * res, (c[:, 1] - y0) * res
+        c0, c1 = max(int(cx.min()) - 1, 0), min(int(cx.max()) + 2, nx)
+        r0, r1 = max(int(cy.min()) - 1, 0), min(int(cy.max()) + 2, ny)
+        if c0 >= c1 or r0 >= r1:
+            continue
+        gx, gy = np.meshgrid(np.arange(c0, c1) + 0.5, np.arange(r0, r1) + 0.5)
+        inside = MplPath(np.stack([cx, cy], 1)).contains_points(np.stack([gx.ravel(), gy.ravel()], 1))
+        block = frame[r0:r1, c0:c1]
+        block[inside.reshape(block.shape)] = k + 1
+    return frame
+
+
+def exact_q(a, b):
+    """The model's shape index of each cell."""
+    return shape_indices(a, b)
+
+
+def render_overlapping(pos, theta, a, b, box, res, fov):
+    """Label frame of simulated cells in a periodic ``box``, which may overlap: a pixel inside
+    several contours goes to the cell for which it is deepest (smallest ``|p - r_i| / R_i(phi)``).
+    Periodic images of the cells are drawn, so ``fov`` may be anywhere inside the box."""
+    from fcsweep.model.shape import radius
+
+    x0, x1, y0, y1 = fov
+    nx, ny = int(round((x1 - x0) * res)), int(round((y1 - y0) * res))
+    frame = np.zeros((ny, nx), dtype=np.int32)
+    best = np.full((ny, nx), np.inf)
+    shifts = [np.array([i * box[0], j * box[1]]) for i in (-1, 0, 1) for j in (-1, 0, 1)]
+    contours = cell_contours(pos, theta, a, b, points=400)
+    for k, c0 in enumerate(contours):
+        for sh in shifts:
+            c = c0 + sh
+            cx, cy = (c[:, 0] - x0) * res, (c[:, 1] - y0) * res
+            col0, col1 = max(int(cx.min()) - 1, 0), min(int(cx.max()) + 2, nx)
+            row0, row1 = max(int(cy.min()) - 1, 0), min(int(cy.max()) + 2, ny)
+            if col0 >= col1 or row0 >= row1:
+                continue
+            gx, gy = np.meshgrid(np.arange(col0, col1) + 0.5, np.arange(row0, row1) + 0.5)
+            pts = np.stack([gx.ravel(), gy.ravel()], 1)
+            inside = MplPath(np.stack([cx, cy], 1)).contains_points(pts).reshape(gx.shape)
+            dx = gx / res + x0 - (pos[k, 0] + sh[0])
+            dy = gy / res + y0 - (pos[k, 1] + sh[1])
+            phi = np.arctan2(dy, dx) - theta[k]
+            R = radius(phi.ravel(), a[k], b[k])[0].reshape(gx.shape)
+            depth = np.where(inside, np.hypot(dx, dy) / R, np.inf)
+            blk = best[row0:row1, col0:col1]
+            win = depth < blk
+            blk[win] = depth[win]
+            frame[row0:row1, col0:col1][win] = k + 1
+    return frame
