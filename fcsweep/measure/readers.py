@@ -131,7 +131,7 @@ def read_seg_npy(path) -> np.ndarray:
                 shape, _, dtype = np.lib.format.read_array_header_2_0(fh)
         except ValueError as exc:
             raise MeasureInputError(f"{path}: not a .npy file ({exc})") from None
-        if dtype != object:  # a plain array: memory-mapped, read frame by frame
+        if dtype.kind != "O":  # a plain array: memory-mapped, read frame by frame
             return np.load(path, allow_pickle=False, mmap_mode="r")
         try:
             obj = _SegUnpickler(io.BufferedReader(fh)).load()
