@@ -172,7 +172,7 @@ def test_readme_quotes_the_measured_numbers():
     """Each number the README gives for the demo, the analysis and the test suite is the
     one in readme_numbers.json (its ``quotes``: a regex with one group, and the text
     that group must read)."""
-    readme = (ROOT / "README.md").read_text()
+    readme = (ROOT / "README.md").read_text() + (ROOT / "docs" / "guide.md").read_text()  # the guide holds the timings
     data = _numbers()
     assert data["quotes"], "readme_numbers.json lists no quotes"
     for q in data["quotes"]:
