@@ -139,13 +139,16 @@ def _flag_words(da, default=None) -> dict[int, str]:
 
 def _phase_words(ds, keep, select, var="phase", default=None) -> np.ndarray:
     """Label word of every point of the plane (of ``var``, a CF flag variable);
-    replicates that disagree are ``undetermined``, points without a label ``unknown``."""
+    replicates, or starts (``initial``), that do not all give the same label are
+    ``undetermined`` (the point rule of :mod:`fcsweep.analysis.points`), points without a
+    label ``unknown``."""
     da = ds[var]
     words = _flag_words(da, default)
-    if "replicate" in da.dims and "replicate" not in keep:
+    over = [d for d in ("replicate", "initial") if d in da.dims and d not in keep]
+    if over:
         da = da.where(da >= 0)
-        lo, hi = da.min("replicate", skipna=True), da.max("replicate", skipna=True)
-        da = lo.where((lo == hi) | lo.isnull(), -2)  # -2: replicates disagree; NaN: no label at all
+        lo, hi = da.min(over, skipna=True), da.max(over, skipna=True)
+        da = lo.where((lo == hi) | lo.isnull(), -2)  # -2: they disagree; NaN: no label at all
     codes = _select(da, keep, select).values
     out = np.full(codes.shape, "unknown", dtype=object)
     for code, word in words.items():
