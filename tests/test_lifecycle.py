@@ -32,6 +32,7 @@ from fcsweep.io.checkpoint import load_checkpoint, save_checkpoint, split_meta
 from fcsweep.io.refinement import append_round
 from fcsweep.io.status import read_status, write_status
 from fcsweep.sweep.executors import run_sweep
+from fcsweep.sweep.options import SweepOptions
 from fcsweep.sweep.plan import plan_runs
 from fcsweep.sweep.runner import run_one
 from fcsweep.sweep.status import collect_status
@@ -190,8 +191,8 @@ def test_every_command_names_the_same_state_and_the_dry_run_predicts_simulate(ba
         assert_same_trajectory(rd / schema.TRAJECTORY, ref.run_dir(spec.run_id) / schema.TRAJECTORY)
         assert collect_status(cfg)[0]["state"] == "done"
     if name == "failed, simulation":  # the dry run with --retry-failed predicts the rerun too
-        (plan,) = plan_runs(cfg, [spec], retry_failed=True)
-        (o,) = run_sweep(cfg, [spec], retry_failed=True)
+        (plan,) = plan_runs(cfg, [spec], SweepOptions(retry_failed=True))
+        (o,) = run_sweep(cfg, [spec], SweepOptions(retry_failed=True))
         assert plan.action == "resume" and f"resumed from step {plan.from_step}" in o.message
 
 

@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 from fcsweep.io.schema import REFINEMENT
-from fcsweep.io.sweepdir import atomic_write
+from fcsweep.io.atomic import atomic_write
 
 __all__ = ["REFINEMENT_FILE", "RefinementError", "read_rounds", "read_points", "append_round"]
 

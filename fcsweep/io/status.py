@@ -6,6 +6,7 @@ import json
 from pathlib import Path
 from typing import Any, Mapping
 
+from fcsweep.io.atomic import atomic_write
 from fcsweep.io.schema import STATUS
 
 __all__ = ["write_status", "read_status"]
@@ -13,8 +14,6 @@ __all__ = ["write_status", "read_status"]
 
 def write_status(run_dir, data: Mapping[str, Any]) -> None:
     """Replace ``run_dir/status.json`` with ``data`` atomically."""
-    from fcsweep.io.sweepdir import atomic_write  # sweepdir reads status files: imported here
-
     def write(tmp: Path) -> None:
         with open(tmp, "w") as fh:
             json.dump(dict(data), fh, indent=1, sort_keys=True)

@@ -254,3 +254,48 @@ def sweep_seconds(cfg, rows) -> list[tuple[float, float]]:
         out.append((run_cpu_seconds(s.params, cfg.run.steps, checkpoints, cost),
                     run_seconds(s.params, cfg.run.steps, checkpoints, cost)))
     return out
+
+
+def bench_report(cfg, rows, *, threads: int, workers: int) -> dict:
+    """What ``fcsweep bench`` reports of ``rows`` (:func:`bench_sweep`), as its ``--json``
+    prints it: every row, the sweep's CPU seconds at the cap (and, with ``run.until``,
+    if every run settles at its first check), the wall seconds on ``workers`` processes
+    (capped at the cores), and this process's share of a core now."""
+    from fcsweep.io.machine import worker_layout
+
+    per_run = sweep_seconds(cfg, [r for r in rows if r.own])  # its own rules, not the --compare ones
+    processes, _ = worker_layout(workers)
+    return {"rows": [{**r.setting, "runs": r.runs, "cell_steps": r.cell_steps, "cell_steps_min": r.cell_steps_min,
+                      "cell_steps_per_s": r.rate, "cpu_seconds": r.cpu_seconds,
+                      "cpu_seconds_min": r.cpu_seconds_min, "spread": r.spread}
+                     for r in rows],
+            "sweep_cpu_seconds": sum(c for c, _ in per_run),
+            "sweep_cpu_seconds_min": sum(r.cpu_seconds_min for r in rows if r.own),
+            "processes": processes, "sweep_wall_seconds": wall_time([w for _, w in per_run], processes),
+            "threads": threads, "cpu_share_now": cpu_share()}
+
+
+def format_bench(cfg, rows, report: dict) -> list[str]:
+    """The table and summary lines of ``fcsweep bench`` (``report``: :func:`bench_report`)."""
+    from fcsweep.sweep.progress import format_duration
+
+    cpu, wall, share = report["sweep_cpu_seconds"], report["sweep_wall_seconds"], report["cpu_share_now"]
+    lines = [f"{'N':>6} {'modes':>5} {'K':>4} {'quadrature':>10} {'integrator':>16} {'runs':>5} "
+             f"{'cell-steps/s':>13} {'us/cell-step':>12} {'spread':>6} {'CPU time of these runs':>23}"]
+    for r in rows:
+        st = r.setting
+        lines.append(f"{st['N']:>6} {st['modes']:>5} {st['contour_points']:>4} {st['quadrature']:>10} "
+                     f"{st['integrator']:>16} {r.runs:>5} {r.rate:>13.3e} {1e6 / r.rate:>12.3f} {r.spread:>6.0%} "
+                     f"{format_duration(r.cpu_seconds):>23}")
+    lines.append(f"sweep ({len(cfg.runs())} runs, {cfg.run.steps} steps each, its own quadratures): "
+                 f"{format_duration(cpu)} of CPU at {report['threads']} thread(s) per run, writing included; "
+                 f"about {format_duration(wall)} wall on {report['processes']} process(es)")
+    if share < 0.9:
+        lines.append(f"note: other jobs share this machine (this process gets {share:.0%} of a core now); the CPU "
+                     f"times hold, the wall time assumes free cores (at this load: about "
+                     f"{format_duration(wall / share)})")
+    if cfg.run.until:
+        lines.append(f"with run.until: between {format_duration(report['sweep_cpu_seconds_min'])} (every run "
+                     f"settled at its first check, {first_stop(cfg.run)} steps) and {format_duration(cpu)} of CPU "
+                     f"(every run to the cap, {cfg.run.steps} steps), plus the checks")
+    return lines

@@ -27,14 +27,14 @@ from fcsweep.io import schema
 from fcsweep.io.locks import DEFAULT_STALE_AFTER
 from fcsweep.io.machine import worker_layout
 from fcsweep.io.rundir import RunDirectory
-from fcsweep.io.status import read_status
+from fcsweep.io.sweepdir import run_state
 from fcsweep.sweep import interrupt
+from fcsweep.sweep.options import EXECUTORS, SweepOptions
 from fcsweep.sweep.progress import Progress
 from fcsweep.sweep.runner import RunOutcome, run_one
 
-__all__ = ["run_sweep", "select_runs", "worker_layout", "unfinished", "EXECUTORS"]
+__all__ = ["run_sweep", "select_runs", "worker_layout", "unfinished", "EXECUTORS", "SweepOptions"]
 
-EXECUTORS = ("serial", "process", "dask")
 _POLL = 0.5
 #: Seconds that running runs get to checkpoint after a stop request before pool workers
 #: are terminated (they then resume from their previous checkpoint).
@@ -54,7 +54,7 @@ def select_runs(cfg: SweepConfig, *, task_index: int | None = None, retry_failed
             raise IndexError(f"--task-index {task_index} is out of range; this sweep has runs 0..{len(specs) - 1}")
         specs = [specs[task_index]]
     if retry_failed:
-        specs = [s for s in specs if (read_status(cfg.run_dir(s.run_id)) or {}).get("status") == schema.FAILED]
+        specs = [s for s in specs if run_state(cfg.run_dir(s.run_id)).state == schema.FAILED]
     return specs
 
 
@@ -78,12 +78,11 @@ def _set_numba_threads(threads: int) -> None:
         pass
 
 
-def _task(cfg: SweepConfig, spec: RunSpec, force: bool, stale_after: float, skip_failed: bool,
-          stop=None, progress=None) -> RunOutcome:
-    """Picklable unit of work for pools and Dask.  With ``skip_failed``, a run that failed
-    for a reason a relaunch does not fix (not an I/O error) is reported, not rerun."""
-    return run_one(cfg, spec, force=force, stale_after=stale_after, stop=stop, progress=progress,
-                   retry_failed=not skip_failed)
+def _task(cfg: SweepConfig, spec: RunSpec, options: SweepOptions, stop=None, progress=None) -> RunOutcome:
+    """Picklable unit of work for pools and Dask.  With ``options.skip_failed``, a run that
+    failed for a reason a relaunch does not fix (not an I/O error) is reported, not rerun."""
+    return run_one(cfg, spec, force=options.force, stale_after=options.stale_after, stop=stop, progress=progress,
+                   retry_failed=not options.skip_failed)
 
 
 class _DaskStop:
@@ -107,8 +106,7 @@ class _DaskStop:
         return self.value
 
 
-def _spec_task(spec: RunSpec, cfg: SweepConfig, force: bool, stale_after: float, skip_failed: bool,
-               stop_event: str | None = None) -> RunOutcome:
+def _spec_task(spec: RunSpec, cfg: SweepConfig, options: SweepOptions, stop_event: str | None = None) -> RunOutcome:
     """:func:`_task` with the run first, for ``Client.map``; one run per worker process
     at a time (start Dask workers with ``--nthreads 1`` and several ``--nworkers``)."""
     stop = _DaskStop(stop_event) if stop_event else None
@@ -116,7 +114,7 @@ def _spec_task(spec: RunSpec, cfg: SweepConfig, force: bool, stale_after: float,
         # one numba thread per run: a Dask worker process runs one run at a time and a
         # node runs one worker process per core
         _set_numba_threads(1)
-        return _task(cfg, spec, force, stale_after, skip_failed, stop=stop)
+        return _task(cfg, spec, options, stop=stop)
 
 
 def _describe(o: RunOutcome, spec: RunSpec) -> str:
@@ -135,35 +133,30 @@ def _describe(o: RunOutcome, spec: RunSpec) -> str:
 def run_sweep(
     cfg: SweepConfig,
     specs: Sequence[RunSpec],
+    options: SweepOptions | None = None,
     *,
-    executor: str = "serial",
-    workers: int = 1,
-    scheduler: str | None = None,
     progress: Progress | None = None,
-    force: bool = False,
-    retry_failed: bool = False,
-    stale_after: float = DEFAULT_STALE_AFTER,
 ) -> list[RunOutcome]:
     """Compute ``specs`` and return one :class:`RunOutcome` per run (same order).
 
     Parameters
     ----------
-    executor : {"serial", "process", "dask"}
-        ``serial`` runs in this process; ``process`` uses a spawn-context
-        ``ProcessPoolExecutor`` with ``workers`` processes; ``dask`` submits to the
-        distributed scheduler at ``scheduler`` (e.g. ``tcp://host:8786``).
-    retry_failed : bool
-        If False, runs whose status is ``failed`` are not recomputed (reported failed).
+    cfg : SweepConfig
+    specs : sequence of RunSpec
+    options : SweepOptions
+        Executor, workers, scheduler, force, retry_failed, stale_after
+        (:class:`fcsweep.sweep.options.SweepOptions`; default ``SweepOptions()``: serial,
+        failed runs reported, not rerun).
+    progress : Progress, optional
     """
     check_runnable(cfg)  # ConfigError before any run starts
     progress = progress or Progress(len(specs), enabled=False)
-    skip_failed = not (retry_failed or force)
-    if executor not in EXECUTORS:
-        raise ValueError(f"executor {executor!r} is not one of {EXECUTORS}")
+    options = options or SweepOptions()
+    executor, workers = options.executor, options.workers
     if executor == "serial" or (executor == "process" and workers <= 1):
         out = []
         for spec in specs:
-            o = _task(cfg, spec, force, stale_after, skip_failed,
+            o = _task(cfg, spec, options,
                       progress=lambda s, step, n: progress.update(s.run_id, s.label(), step, n))
             if not (o.outcome == "interrupted" and o.message == "not started"):
                 progress.run_finished(spec.run_id, _describe(o, spec), computed=o.wall_seconds > 0)
@@ -174,7 +167,7 @@ def run_sweep(
         ctx = mp.get_context("spawn")
         with cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_worker,
                                     initargs=(threads,)) as pool:
-            futs = [pool.submit(_task, cfg, s, force, stale_after, skip_failed) for s in specs]
+            futs = [pool.submit(_task, cfg, s, options) for s in specs]
 
             def on_stop(signum: int) -> None:
                 for f in futs:
@@ -196,14 +189,14 @@ def run_sweep(
                 give_up()
                 raise
     # dask
-    if not scheduler:
+    if not options.scheduler:
         raise ValueError("--executor dask needs --scheduler ADDRESS (e.g. tcp://host:8786)")
     from distributed import Client, Event
 
-    with Client(scheduler, timeout="30s", set_as_default=False) as client:
+    with Client(options.scheduler, timeout="30s", set_as_default=False) as client:
         event_name = f"fcsweep-stop-{os.getpid()}-{time.time_ns()}"
         futs = client.map(
-            _spec_task, specs, cfg=cfg, force=force, stale_after=stale_after, skip_failed=skip_failed,
+            _spec_task, specs, cfg=cfg, options=options,
             stop_event=event_name, pure=False, key=[f"fcsweep-{s.run_id}-{time.time_ns()}" for s in specs],
         )
         try:
@@ -277,8 +270,9 @@ def _collect(cfg, specs, futs, progress: Progress, width: int, *, done, result, 
         pending = still
         for i in pending[: 2 * width]:
             spec = specs[i]
-            st = read_status(cfg.run_dir(spec.run_id)) or {}
-            if st.get("status") == schema.RUNNING and st.get("run_id") == spec.run_id:
+            rs = run_state(cfg.run_dir(spec.run_id))
+            st = rs.st
+            if rs.state == schema.RUNNING and st.get("run_id") == spec.run_id:
                 progress.update(spec.run_id, spec.label(), int(st.get("steps_done", 0)), int(st.get("steps", 1)))
         if pending:
             time.sleep(_POLL)

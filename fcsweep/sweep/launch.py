@@ -19,9 +19,9 @@ from __future__ import annotations
 from typing import Callable, Sequence
 
 from fcsweep.config import RunSpec, SweepConfig
-from fcsweep.io.locks import DEFAULT_STALE_AFTER
 from fcsweep.sweep import interrupt
 from fcsweep.sweep.executors import run_sweep, unfinished
+from fcsweep.sweep.options import SweepOptions
 from fcsweep.sweep.progress import Progress
 from fcsweep.sweep.runner import RunOutcome
 
@@ -31,8 +31,8 @@ __all__ = ["compute", "stop_code", "space_code", "simulate_runs", "failure_advic
 CONFLICT = "computed with other run settings"
 
 
-def compute(cfg: SweepConfig, specs: Sequence[RunSpec], *, progress: Progress, say: Callable[[str], None],
-            executor: str = "serial", **kwargs) -> list[RunOutcome] | None:
+def compute(cfg: SweepConfig, specs: Sequence[RunSpec], options: SweepOptions, *, progress: Progress,
+            say: Callable[[str], None]) -> list[RunOutcome] | None:
     """:func:`fcsweep.sweep.executors.run_sweep` with the stop handler installed; the
     progress display is closed afterwards.
 
@@ -40,12 +40,11 @@ def compute(cfg: SweepConfig, specs: Sequence[RunSpec], *, progress: Progress, s
     ----------
     cfg : SweepConfig
     specs : sequence of RunSpec
+    options : SweepOptions
+        How to compute them (:class:`fcsweep.sweep.options.SweepOptions`).
     progress : Progress
     say : callable
         Receives the message when the Dask scheduler cannot be reached.
-    executor : str
-    **kwargs
-        Further arguments of ``run_sweep`` (``workers``, ``scheduler``, ``force``...).
 
     Returns
     -------
@@ -54,11 +53,11 @@ def compute(cfg: SweepConfig, specs: Sequence[RunSpec], *, progress: Progress, s
     """
     previous = interrupt.install()
     try:
-        return run_sweep(cfg, specs, executor=executor, progress=progress, **kwargs)
+        return run_sweep(cfg, specs, options, progress=progress)
     except (OSError, TimeoutError) as exc:
-        if executor != "dask":
+        if options.executor != "dask":
             raise
-        say(f"fcsweep: cannot reach the Dask scheduler at {kwargs.get('scheduler')}: {exc}")
+        say(f"fcsweep: cannot reach the Dask scheduler at {options.scheduler}: {exc}")
         return None
     finally:
         progress.close()
@@ -104,16 +103,16 @@ def space_code(cfg: SweepConfig, specs: Sequence[RunSpec], say: Callable[[str], 
     return 0
 
 
-def simulate_runs(cfg: SweepConfig, specs: Sequence[RunSpec], *, progress: Progress, say: Callable[[str], None],
-                  resume: str, advice_arg: str = "", executor: str = "serial", workers: int = 1,
-                  scheduler: str | None = None, force: bool = False, retry_failed: bool = False,
-                  stale_after: float = DEFAULT_STALE_AFTER) -> int:
+def simulate_runs(cfg: SweepConfig, specs: Sequence[RunSpec], options: SweepOptions, *, progress: Progress,
+                  say: Callable[[str], None], resume: str, advice_arg: str = "") -> int:
     """Compute ``specs`` and report as ``fcsweep simulate`` does; returns the exit code.
 
     Parameters
     ----------
     cfg : SweepConfig
     specs : sequence of RunSpec
+    options : SweepOptions
+        How to compute them (:class:`fcsweep.sweep.options.SweepOptions`).
     progress : Progress
     say : callable
         Receives every line of the report (meant for stderr).
@@ -121,8 +120,6 @@ def simulate_runs(cfg: SweepConfig, specs: Sequence[RunSpec], *, progress: Progr
         The command that resumes the sweep after a stop signal.
     advice_arg : str
         How the user named the sweep (``configs/x.yaml -o out``), for advice lines.
-    executor, workers, scheduler, force, retry_failed, stale_after
-        As for :func:`fcsweep.sweep.executors.run_sweep`.
 
     Returns
     -------
@@ -130,8 +127,7 @@ def simulate_runs(cfg: SweepConfig, specs: Sequence[RunSpec], *, progress: Progr
         0 every run finished; 1 some run failed or was left unfinished by a dead lock
         holder; 2 the Dask scheduler cannot be reached; 128 + signal number if stopped.
     """
-    outcomes = compute(cfg, specs, progress=progress, say=say, executor=executor, workers=workers,
-                       scheduler=scheduler, force=force, retry_failed=retry_failed, stale_after=stale_after)
+    outcomes = compute(cfg, specs, options, progress=progress, say=say)
     if outcomes is None:
         return 2
     counts = {k: sum(o.outcome == k for o in outcomes) for k in ("done", "skipped", "locked", "failed",
@@ -145,7 +141,7 @@ def simulate_runs(cfg: SweepConfig, specs: Sequence[RunSpec], *, progress: Progr
     code = stop_code(outcomes, say, resume)
     if code is not None:
         return code
-    lost = unfinished(cfg, outcomes, stale_after)
+    lost = unfinished(cfg, outcomes, options.stale_after)
     for o in lost:
         say(f"  unfinished: run {o.index} {o.run_id}: its lock holder stopped without finishing "
             f"({o.message}); the next launch computes it")

@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Callable, Mapping
 
 from fcsweep.config import ConfigError, SweepConfig
+from fcsweep.sweep.options import SweepOptions
 
 __all__ = ["refine_loop"]
 
@@ -31,8 +32,9 @@ class _Exit(Exception):
 
 def refine_loop(cfg: SweepConfig, *, analyse: Callable[[SweepConfig], Path],
                 flag_names: Mapping[str, Mapping[int, str]], say: Callable[[str], None],
-                echo: Callable[[str], None], rounds: int = 1, max_points: int | None = None, workers: int = 1,
-                add_only: bool = False, quiet: bool = False, config: str | None = None) -> int:
+                echo: Callable[[str], None], options: SweepOptions | None = None, rounds: int = 1,
+                max_points: int | None = None, add_only: bool = False, quiet: bool = False,
+                config: str | None = None) -> int:
     """Run ``fcsweep refine``; returns its exit code.
 
     Parameters
@@ -47,12 +49,12 @@ def refine_loop(cfg: SweepConfig, *, analyse: Callable[[SweepConfig], Path],
         Receives progress and error lines (meant for stderr).
     echo : callable
         Receives the added points, one line each (meant for stdout).
+    options : SweepOptions, optional
+        How runs are computed (:class:`fcsweep.sweep.options.SweepOptions`; default serial).
     rounds : int
         Refinement rounds after the sweep is complete.
     max_points : int, optional
         Most points added per round.
-    workers : int
-        Runs computed at once.
     add_only : bool
         Compute nothing: analyse, aggregate and add one round of points (job arrays).
     quiet : bool
@@ -66,11 +68,12 @@ def refine_loop(cfg: SweepConfig, *, analyse: Callable[[SweepConfig], Path],
         0; 1 if a run of the last computing round failed; 2 if the refinement file does
         not fit the config or the runs do not fit on disk; 128 + signal number if stopped.
     """
+    options = options or SweepOptions()
     try:
         failed = 0
         for k in range(1 if add_only else rounds + 1):
             if not add_only:
-                failed = _compute(cfg, workers, quiet, say)
+                failed = _compute(cfg, options, quiet, say)
             path = analyse(cfg)
             say(f"fcsweep: aggregated -> {path}")
             if k == rounds:
@@ -102,7 +105,7 @@ def _runs(cfg: SweepConfig, say) -> list:
     return _checked(cfg.runs, say)
 
 
-def _compute(cfg: SweepConfig, workers: int, quiet: bool, say) -> int:
+def _compute(cfg: SweepConfig, options: SweepOptions, quiet: bool, say) -> int:
     """Simulate every run not done yet; returns the number that failed."""
     from fcsweep.sweep.launch import compute, space_code, stop_code
     from fcsweep.sweep.progress import Progress
@@ -112,8 +115,7 @@ def _compute(cfg: SweepConfig, workers: int, quiet: bool, say) -> int:
     if code:
         raise _Exit(code)
     progress = Progress(len(specs), enabled=not quiet)
-    outcomes = compute(cfg, specs, progress=progress, say=say, executor="process" if workers > 1 else "serial",
-                       workers=workers)
+    outcomes = compute(cfg, specs, options, progress=progress, say=say)
     code = stop_code(outcomes, say)
     if code is not None:
         raise _Exit(code)
