@@ -14,7 +14,6 @@ import dataclasses
 import json
 import math
 import os
-import tempfile
 import warnings
 from dataclasses import dataclass
 
@@ -22,6 +21,7 @@ import numba
 import numpy as np
 
 from . import __version__
+from .io.atomic import atomic_write
 from .kernels.records import P_DMAX
 from .kernels.step import LIST_FULL, NONFINITE, OK, run_chunk
 from .kernels.api import param_vector
@@ -388,20 +388,16 @@ class Simulation:
         return cls(params, state, rng)
 
     def save(self, path) -> None:
-        """Write the full state to an ``.npz`` file atomically (temporary file, then rename)."""
-        path = os.fspath(path)
-        d = os.path.dirname(os.path.abspath(path))
-        fd, tmp = tempfile.mkstemp(dir=d, prefix=".ckpt-", suffix=".npz")
-        try:
-            with os.fdopen(fd, "wb") as fh:
-                np.savez(fh, **self.to_checkpoint())
-                fh.flush()
-                os.fsync(fh.fileno())
-            os.replace(tmp, path)
-        except BaseException:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
-            raise
+        """Write the full state to an ``.npz`` file atomically and durably
+        (:func:`fcsweep.io.atomic.atomic_write` with fsync: a reader sees the previous
+        file or the complete new one)."""
+        data = self.to_checkpoint()
+
+        def write(tmp) -> None:
+            with open(tmp, "wb") as fh:  # a file object: np.savez would add ".npz" to a name
+                np.savez(fh, **data)
+
+        atomic_write(path, write, fsync=True)
 
     @classmethod
     def load(cls, path) -> "Simulation":

@@ -53,7 +53,7 @@ from fcsweep.config.limits import (MAX_CELL_STEPS, MAX_DR_DT, MAX_FRAMES, MAX_RU
                                    check_step_sizes, machine_memory_bytes, run_memory_bytes)
 from fcsweep.config.params import PARAM_RANGES
 from fcsweep.config.schema import json_schema
-from fcsweep.config.settings import (DEFAULT_FIELDS, FIELDS, MODEL_DEFAULTS, RunSettings,
+from fcsweep.config.settings import (DEFAULT_FIELDS, DEFAULT_TRANSIENT, FIELDS, MODEL_DEFAULTS, RunSettings,
                                      RunSpec, StoreSettings, SweepConfig, UntilSettings, run_id_of, seed_of)
 from fcsweep.config.validate import builtin_demo_path, load_config, parse_config
 from fcsweep.config.yaml12 import MAX_CONFIG_BYTES, _UniqueKeyLoader
@@ -84,6 +84,7 @@ __all__ = [
     "machine_memory_bytes",
     "json_schema",
     "DEFAULT_FIELDS",
+    "DEFAULT_TRANSIENT",
     "UNCHECKED",
     "MAX_CONFIG_BYTES",
     "MAX_STEPS",

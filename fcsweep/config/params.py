@@ -16,10 +16,8 @@ def _allowed(name: str) -> str:
     """What a model parameter may be, as in the range messages (``allowed 1e-06 <= dt <= 1``)."""
     if name in STR_PARAMS:
         return f"choose one of {list(STR_PARAMS[name])}"
-    if name == "N":
-        return f"allowed N = n*n with n even, 4 <= N <= {PARAM_RANGES['N'][1]}"
-    if name == "modes":
-        return "allowed 0 (rigid discs) or 2..32"
+    if name in INT_PARAMS:  # N, modes, contour_points: their rule (the table's one wording)
+        return f"allowed {PARAMETERS[name].allowed}"
     return PARAMETERS[name].range_text()
 
 
@@ -31,7 +29,8 @@ def _check_param(name: str, value, where: str) -> Any:
             raise ConfigError(f"{key} = {_show(value)} is not allowed; choose one of {list(STR_PARAMS[name])}")
         return value
     if name == "N":
-        n = _int(value, key, minimum=4, maximum=PARAM_RANGES["N"][1], allowed=_allowed("N"))
+        lo, hi = PARAM_RANGES["N"]
+        n = _int(value, key, minimum=int(lo), maximum=int(hi), allowed=_allowed("N"))
         from fcsweep.model.lattice import lattice_side
 
         try:
@@ -41,11 +40,12 @@ def _check_param(name: str, value, where: str) -> Any:
         return n
     if name == "modes":
         m = _int(value, key, minimum=0, allowed=_allowed("modes"))
-        if m == 1 or m > 32:
-            raise ConfigError(f"{key} = {m} is not allowed; modes is 0 (rigid discs) or 2..32")
+        if m == 1 or m > PARAM_RANGES["modes"][1]:
+            raise ConfigError(f"{key} = {m} is not allowed; modes is {PARAMETERS['modes'].allowed}")
         return m
     if name == "contour_points":
-        return _int(value, key, minimum=8, maximum=PARAM_RANGES["contour_points"][1])
+        lo, hi = PARAM_RANGES["contour_points"]
+        return _int(value, key, minimum=int(lo), maximum=int(hi), allowed=_allowed("contour_points"))
     x = _real(value, key, _allowed(name))
     p = PARAMETERS[name]
     if not p.sign_ok(x):

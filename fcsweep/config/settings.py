@@ -81,6 +81,11 @@ class AnalysisSettings:
         return {"label_confidence": self.label_confidence, "percolation_threshold": self.percolation_threshold}
 
 
+#: Default fraction of recorded frames discarded at the start of every analysis
+#: (``run.transient``; :class:`RunSettings`' default, which validation reads too).
+DEFAULT_TRANSIENT = 0.2
+
+
 @dataclass(frozen=True)
 class RunSettings:
     """Integration length and output cadence shared by every run of a sweep.
@@ -91,7 +96,7 @@ class RunSettings:
     steps: int
     sample_every: int
     checkpoint_every: int
-    transient: float = 0.2
+    transient: float = DEFAULT_TRANSIENT
     until: UntilSettings | None = None
 
     @property

@@ -15,9 +15,9 @@ from fcsweep.config.errors import _FAILED, UNCHECKED, ConfigError, _Problems, _i
 from fcsweep.config.limits import (MAX_RUNS, MAX_STEPS, _check_output_path, _check_run_count,
                                    _check_run_length)
 from fcsweep.config.params import PARAM_RANGES, _allowed, _canon_value, _check_param
-from fcsweep.config.settings import (ANALYSIS_KEYS, COMPRESSIONS, DEFAULT_FIELDS, FIELDS, LABEL_CONFIDENCE,
-                                     MODEL_DEFAULTS, OUTPUT_KEYS, PERCOLATION_THRESHOLD, RANGE_KEYS, RUN_KEYS,
-                                     TOP_KEYS, UNTIL_CONFIDENCE, UNTIL_KEYS, AnalysisSettings, RunSettings,
+from fcsweep.config.settings import (ANALYSIS_KEYS, COMPRESSIONS, DEFAULT_FIELDS, DEFAULT_TRANSIENT, FIELDS,
+                                     LABEL_CONFIDENCE, MODEL_DEFAULTS, OUTPUT_KEYS, PERCOLATION_THRESHOLD, RANGE_KEYS,
+                                     RUN_KEYS, TOP_KEYS, UNTIL_CONFIDENCE, UNTIL_KEYS, AnalysisSettings, RunSettings,
                                      StoreSettings, SweepConfig, UntilSettings)
 from fcsweep.io.observables import UNTIL_OBSERVABLES
 from fcsweep.config.yaml12 import MAX_CONFIG_BYTES, MAX_NESTING, _check_structure, _read_text, _UniqueKeyLoader
@@ -346,7 +346,7 @@ def _run_section(run_in, problems: _Problems):
         problems.add(ConfigError(
             f"run.checkpoint_every = {checkpoint_every} is not a multiple of run.sample_every = "
             f"{sample_every}; checkpoints are taken on frame boundaries"))
-    transient = problems.attempt(_real, run_in.get("transient", 0.2), "run.transient",
+    transient = problems.attempt(_real, run_in.get("transient", DEFAULT_TRANSIENT), "run.transient",
                                  "allowed 0 <= transient < 1")
     if transient is not _FAILED and not 0.0 <= transient < 1.0:
         problems.add(ConfigError(f"run.transient = {transient!r} is out of range; allowed 0 <= transient < 1"))

@@ -23,6 +23,7 @@ and the removals (temporaries of killed writers, a restart from step 0, a stale 
 from __future__ import annotations
 
 import errno
+import json
 import os
 import re
 import shutil
@@ -303,3 +304,48 @@ class RunDirectory:
                            steps_done=0, steps=prev.get("steps"), fingerprint=prev.get("fingerprint"),
                            attempts=prev.get("attempts", 1),
                            **{k: prev[k] for k in schema.COST_KEYS if k in prev})
+
+
+def analysis_is_current(analysis, trajectory=None, *, settings: Mapping[str, Any] | None = None,
+                        transient: float | None = None) -> bool:
+    """Whether the analysis file ``analysis`` is up to date: the one rule of
+    ``fcsweep status`` (analysed ``yes`` / ``stale``) and of ``fcsweep analyze`` (skip or
+    recompute).
+
+    It is current when it exists and can be read, is not older than ``trajectory`` (when
+    given and present), and was made with ``settings`` (when given: equal dicts) or
+    else, when ``transient`` is given, with that transient (a file that records none
+    counts as made with it).
+
+    Parameters
+    ----------
+    analysis : path-like
+        ``analysis.h5``.
+    trajectory : path-like, optional
+        The trajectory it describes; a newer trajectory makes it stale.
+    settings : mapping, optional
+        The analysis settings that would be used now.
+    transient : float, optional
+        Compared when ``settings`` is not given.
+
+    Returns
+    -------
+    bool
+        ``False`` also for a missing or unreadable file (it is recomputed).
+    """
+    import h5py
+
+    analysis = Path(analysis)
+    try:
+        if trajectory is not None and Path(trajectory).exists() and \
+                Path(trajectory).stat().st_mtime > analysis.stat().st_mtime:
+            return False
+        with h5py.File(analysis, "r", locking=False) as f:
+            used = json.loads(f.attrs.get(schema.ANALYSIS_SETTINGS_ATTR, "{}"))
+    except (OSError, ValueError):
+        return False
+    if settings is not None:
+        return used == dict(settings)
+    t = used.get("transient") if transient is not None else None
+    return t is None or abs(float(t) - float(transient)) <= 1e-12
+

@@ -9,6 +9,8 @@ CHECKPOINT = "checkpoint.npz"
 STATUS = "status.json"
 LOCK = "run.lock"
 ANALYSIS = "analysis.h5"
+#: Attribute of ``analysis.h5`` holding the analysis settings it was made with (JSON).
+ANALYSIS_SETTINGS_ATTR = "settings_json"
 #: Written by a failed analysis (``fcsweep.analysis.pipeline.ANALYSIS_ERROR_FILE``).
 ANALYSIS_ERROR = "analysis_error.txt"
 #: File names inside ``<output>/``: the aggregated dataset and the points ``fcsweep refine`` added.

@@ -87,6 +87,14 @@ class RunState:
         """``status`` or ``{}``."""
         return self.status or {}
 
+    @property
+    def recorded(self) -> str | None:
+        """The word ``status.json`` records (``None`` without one): what the runner last
+        wrote, which :attr:`state` reads together with the lock and the trajectory.  Only
+        the life cycle (:mod:`fcsweep.sweep.lifecycle`) decides on it; everything that
+        shows or selects runs reads :attr:`state`."""
+        return self.st.get("status")
+
 
 def state_of(status: dict[str, Any] | None, has_trajectory: bool, live_lock: bool) -> tuple[str, str]:
     """The state word and its reason from what the files say (the module table)."""

@@ -23,7 +23,8 @@ from fcsweep.model.integrators import DEFAULT_INTEGRATOR, INTEGRATORS
 from fcsweep.model.rates import QUADRATURES
 
 __all__ = ["Parameter", "PARAMETERS", "DEFAULTS", "INT_PARAMS", "STR_PARAMS", "RANGES", "ID_OMITS_DEFAULT",
-           "INITIAL_STATES", "markdown_table"]
+           "INITIAL_STATES", "markdown_table",
+           "N_RULE", "MODES_RULE", "CONTOUR_POINTS_RULE"]
 
 #: The initial states a run may start from (the ``initial`` parameter, docs/model.md).
 INITIAL_STATES = ("lattice", "disordered")
@@ -105,12 +106,18 @@ class Parameter:
         return f"allowed {lo:g} <= {self.name} {'<' if self.upper_open else '<='} {hi:g}"
 
 
+#: The rules of the integer parameters that are more than a range, in the one wording the
+#: config messages (``allowed ...``), the JSON Schema descriptions and configs/README.md's
+#: table use.
+N_RULE = "N = n*n with n even, 4 <= N <= 1000000"
+MODES_RULE = "0 (rigid discs) or 2..32"
+CONTOUR_POINTS_RULE = "8 <= contour_points <= 4096 and > 2 modes (fewer alias mode M)"
+
 #: The model parameters, in the order run parameters are stored.
 PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
     Parameter("N", int, None, "number of cells",
-              "number of cells, an n x n hexagonal lattice: n*n with n even (16, 36, 64, ..., 1024)",
-              "number of cells, an n × n hexagonal lattice",
-              "n² with n even (16, 36, 64, …, 1024, …), ≤ 10⁶", range=(4, 10**6), unit="cells"),
+              f"number of cells, an n x n hexagonal lattice: {N_RULE}", "number of cells, an n × n hexagonal lattice",
+              N_RULE, range=(4, 10**6), unit="cells"),
     Parameter("eta", float, None, "membrane tension eta", "membrane tension",
               "membrane tension η", "0 … 10³", range=(0.0, 1e3), sign=">= 0", unit="F"),
     Parameter("v0", float, None, "self-propulsion speed v0 (R0 per time unit)",
@@ -125,11 +132,11 @@ PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
               "10⁻⁶ ≤ dt ≤ 1 and ≤ 1.5/λ_M, λ_M = π μ_shape η R0 (M² − 1), at every grid point (the explicit "
               "step amplifies the stiffest shape mode above 2/λ_M; η = 0.1: ≤ 0.136, η = 1: ≤ 0.0136; no limit "
               "for `modes: 0`)", range=(1e-6, 1.0), sign="> 0", unit="τ"),
-    Parameter("contour_points", int, 40, "contour quadrature points K", "contour quadrature points K (> 2 modes)",
-              "contour quadrature points K", "integer 8 … 4096 and > 2 M (fewer alias mode M)", range=(8, 4096),
-              unit="points"),
-    Parameter("modes", int, 6, "highest Fourier mode M", "highest Fourier mode M: 0 (rigid discs) or 2..32",
-              "highest Fourier mode M", "0 (rigid discs) or 2..32", range=(0, 32)),
+    Parameter("contour_points", int, 40, "contour quadrature points K",
+              f"contour quadrature points K: {CONTOUR_POINTS_RULE}", "contour quadrature points K",
+              CONTOUR_POINTS_RULE, range=(8, 4096), unit="points"),
+    Parameter("modes", int, 6, "highest Fourier mode M", f"highest Fourier mode M: {MODES_RULE}",
+              "highest Fourier mode M", MODES_RULE, range=(0, 32)),
     Parameter("quadrature", str, "arc", "contact quadrature rule", "contact quadrature (binary: the paper's)",
               "contact quadrature", "`binary` (paper), `linear`, `arc`; not sweepable with `modes: 0` (no effect)",
               choices=tuple(QUADRATURES), unit="",

@@ -158,10 +158,52 @@ def _done_fingerprint(st: dict, traj: Path) -> str | None:
         return None
 
 
+@dataclass(frozen=True)
+class _Look:
+    """What :func:`assess` read of one run, and how it words an :class:`Assessment`."""
+
+    cfg: SweepConfig
+    rd: RunDirectory
+    rs: Any  # fcsweep.io.sweepdir.RunState
+    fp: str
+    lock: dict | None
+    force: bool
+    retry_failed: bool
+    verify: bool | None
+
+    @property
+    def st(self) -> dict[str, Any]:
+        return self.rs.st
+
+    @property
+    def word(self) -> str | None:
+        """The word ``status.json`` records (what the runner last wrote), before
+        :func:`fcsweep.io.sweepdir.run_state` reads it together with lock and trajectory."""
+        return self.rs.recorded
+
+    def out(self, action: str, from_step: int, reason: str = "", left: int | None = None, **kw) -> Assessment:
+        from_step = int(from_step)
+        if left is None:
+            left = max(self.cfg.run.steps - from_step, 0) if action in ("start", "resume", "extend") else 0
+        return Assessment(self.rs.state, action, from_step, int(left), reason, status=self.st, **kw)
+
+    def locked(self) -> Assessment | None:
+        lock = self.lock
+        return None if lock is None else self.out("locked", 0, f"held by pid {lock.get('pid')} on {lock.get('host')}")
+
+    def restart(self) -> Assessment:
+        return self.out("start", 0, "restart" if self.word in (schema.FAILED, schema.RUNNING) else "")
+
+
 def assess(cfg: SweepConfig, spec: RunSpec, *, force: bool = False, retry_failed: bool = False,
            stale_after: float = DEFAULT_STALE_AFTER, verify: bool | None = None,
            ours: bool = False) -> Assessment:
     """State of run ``spec`` and what the next ``simulate`` does with it (reads only).
+
+    The steps, in the order of the module docstring: :func:`_failed_earlier`,
+    :func:`_done_run`, a live lock, :func:`_done_without_trajectory`, ``--force``,
+    :func:`_finished_unrecorded` (killed between the final rename and the status write),
+    :func:`_from_checkpoint`, else a fresh start.
 
     Parameters
     ----------
@@ -183,85 +225,117 @@ def assess(cfg: SweepConfig, spec: RunSpec, *, force: bool = False, retry_failed
     """
     rd = RunDirectory(cfg.run_dir(spec.run_id), spec.run_id, spec.index, spec.params)
     rs = run_state(rd.path, stale_after)
-    st = rs.st
-    steps, se = cfg.run.steps, cfg.run.sample_every
-    fp = fingerprint_of(cfg, spec)
-    word = st.get("status")
-    lock = None if ours else rs.lock
+    look = _Look(cfg, rd, rs, fingerprint_of(cfg, spec), None if ours else rs.lock, force, retry_failed, verify)
+    for step in (_failed_earlier, _done_run, _Look.locked, _done_without_trajectory, _forced,
+                 _finished_unrecorded, _from_checkpoint):
+        a = step(look)
+        if a is not None:
+            return a
+    return look.restart()
 
-    def out(action: str, from_step: int, reason: str = "", left: int | None = None, **kw) -> Assessment:
-        from_step = int(from_step)
-        if left is None:
-            left = max(steps - from_step, 0) if action in ("start", "resume", "extend") else 0
-        return Assessment(rs.state, action, from_step, int(left), reason, status=st, **kw)
 
-    locked = None if lock is None else out("locked", 0, f"held by pid {lock.get('pid')} on {lock.get('host')}")
-    if word == schema.FAILED and st.get("cause") != schema.CAUSE_IO and not (retry_failed or force):
-        return out("failed", 0, f"failed earlier ({st.get('reason', '')})")
-    if word == schema.DONE and not force and rs.has_trajectory:
-        done_fp = _done_fingerprint(st, rd.trajectory)
-        if done_fp is not None:
-            if not same_physics(done_fp, fp):
-                return out("blocked", 0, f"computed with other run settings ({settings_change(done_fp, fp)}): "
-                                         "--force recomputes it, or use another output directory",
-                           conflict=(rd.trajectory, done_fp, fp))
-            done = int(st.get("steps_done", 0) or 0)
-            more = extension_of(cfg.run, st)
-            problem = _damage(rd, frames_done(cfg.run, st) if more is None else done // se + 1, verify)
-            if problem is None and more is None:
-                return out("skip", int(st.get("steps_done", 0)), "already done")
-            if locked is not None:
-                return locked
-            if problem is not None:
-                return out("start", 0, f"trajectory.h5 damaged: {problem}", damaged=problem)
-            why = extension_blocker(rd.path, done, fp)
-            if why is not None:
-                return out("start", 0, f"recomputed from step 0 to extend it: {why}")
-            return out("extend", done, more)
+def _failed_earlier(look: _Look) -> Assessment | None:
+    """A failure a relaunch does not fix, without ``--retry-failed`` / ``--force``."""
+    st = look.st
+    if look.word == schema.FAILED and st.get("cause") != schema.CAUSE_IO and not (look.retry_failed or look.force):
+        return look.out("failed", 0, f"failed earlier ({st.get('reason', '')})")
+    return None
+
+
+def _done_run(look: _Look) -> Assessment | None:
+    """A done run with its trajectory: blocked, skipped, held, recomputed or extended
+    (``None`` without a readable fingerprint: the later steps decide)."""
+    if not (look.word == schema.DONE and not look.force and look.rs.has_trajectory):
+        return None
+    st, rd, fp, cfg = look.st, look.rd, look.fp, look.cfg
+    done_fp = _done_fingerprint(st, rd.trajectory)
+    if done_fp is None:
+        return None
+    if not same_physics(done_fp, fp):
+        return look.out("blocked", 0, f"computed with other run settings ({settings_change(done_fp, fp)}): "
+                                      "--force recomputes it, or use another output directory",
+                        conflict=(rd.trajectory, done_fp, fp))
+    done = int(st.get("steps_done", 0) or 0)
+    more = extension_of(cfg.run, st)
+    problem = _damage(rd, frames_done(cfg.run, st) if more is None else done // cfg.run.sample_every + 1,
+                      look.verify)
+    if problem is None and more is None:
+        return look.out("skip", int(st.get("steps_done", 0)), "already done")
+    locked = look.locked()
     if locked is not None:
         return locked
-    if word == schema.DONE and not force and not rs.has_trajectory:  # trajectory.h5 is gone
-        return out("start", 0, rs.reason, damaged="trajectory.h5 is missing")
-    if force:
-        if word == schema.DONE and rs.has_trajectory:
-            return out("start", 0, "recomputed (--force)")
-        return out("start", 0, "restart" if word in (schema.FAILED, schema.RUNNING) else "")
-    if rs.has_trajectory:  # killed after the final rename, before status.json said done
-        try:
-            par = read_parameters(rd.trajectory)
-        except Exception:  # noqa: BLE001 - unreadable: recomputed (below)
-            par = None
-        if par is not None:
-            if not same_physics(par.get("fingerprint"), fp):
-                return out("blocked", 0, f"computed with other run settings "
-                                         f"({settings_change(par.get('fingerprint'), fp)}): --force recomputes "
-                                         "it, or use another output directory",
-                           conflict=(rd.trajectory, par.get("fingerprint"), fp))
-            done = int(par.get("steps_done", par.get("steps", steps)))
-            if verify_trajectory(rd.trajectory, done // se + 1) is None:
-                ended = {"steps_done": done, "stop_reason": par.get("stop_reason") or STOP_STEPS,
-                         "until": par.get("until_json"), "transient": par.get("transient", cfg.run.transient)}
-                more = extension_of(cfg.run, ended)
-                if more is None:
-                    return out("resume", done, "recovered finished trajectory", left=0)
-                why = extension_blocker(rd.path, done, fp)
-                if why is not None:
-                    return out("start", 0, f"recomputed from step 0 to extend it: {why}")
-                return out("extend", done, more)
+    if problem is not None:
+        return look.out("start", 0, f"trajectory.h5 damaged: {problem}", damaged=problem)
+    why = extension_blocker(rd.path, done, fp)
+    if why is not None:
+        return look.out("start", 0, f"recomputed from step 0 to extend it: {why}")
+    return look.out("extend", done, more)
+
+
+def _done_without_trajectory(look: _Look) -> Assessment | None:
+    """A done run whose trajectory.h5 is gone: recomputed."""
+    if look.word == schema.DONE and not look.force and not look.rs.has_trajectory:
+        return look.out("start", 0, look.rs.reason, damaged="trajectory.h5 is missing")
+    return None
+
+
+def _forced(look: _Look) -> Assessment | None:
+    """``--force``: computed from step 0."""
+    if not look.force:
+        return None
+    if look.word == schema.DONE and look.rs.has_trajectory:
+        return look.out("start", 0, "recomputed (--force)")
+    return look.restart()
+
+
+def _finished_unrecorded(look: _Look) -> Assessment | None:
+    """A trajectory.h5 whose run was killed after the final rename, before status.json
+    said done: resumed with nothing left, extended, or blocked (``None`` when it is
+    unreadable or damaged: the checkpoint decides)."""
+    if not look.rs.has_trajectory:
+        return None
+    rd, fp, cfg = look.rd, look.fp, look.cfg
+    try:
+        par = read_parameters(rd.trajectory)
+    except Exception:  # noqa: BLE001 - unreadable: recomputed (later steps)
+        return None
+    if not same_physics(par.get("fingerprint"), fp):
+        return look.out("blocked", 0, f"computed with other run settings "
+                                      f"({settings_change(par.get('fingerprint'), fp)}): --force recomputes "
+                                      "it, or use another output directory",
+                        conflict=(rd.trajectory, par.get("fingerprint"), fp))
+    done = int(par.get("steps_done", par.get("steps", cfg.run.steps)))
+    if verify_trajectory(rd.trajectory, done // cfg.run.sample_every + 1) is not None:
+        return None
+    ended = {"steps_done": done, "stop_reason": par.get("stop_reason") or STOP_STEPS,
+             "until": par.get("until_json"), "transient": par.get("transient", cfg.run.transient)}
+    more = extension_of(cfg.run, ended)
+    if more is None:
+        return look.out("resume", done, "recovered finished trajectory", left=0)
+    why = extension_blocker(rd.path, done, fp)
+    if why is not None:
+        return look.out("start", 0, f"recomputed from step 0 to extend it: {why}")
+    return look.out("extend", done, more)
+
+
+def _from_checkpoint(look: _Look) -> Assessment | None:
+    """A checkpoint (no trajectory, or a damaged one that the runner removes): resumed
+    from it, restarted when its partial trajectory is unusable, or blocked."""
+    rd, fp = look.rd, look.fp
     ck = load_checkpoint(rd.checkpoint, keys=[f"_sweep_{k}" for k in ("fingerprint", "frames", "step")])
-    if ck is not None:  # no trajectory, or a damaged one that the runner removes
-        meta = split_meta(ck)[1]
-        if not same_physics(meta.get("fingerprint"), fp):
-            return out("blocked", 0, f"checkpoint from other run settings "
-                                     f"({settings_change(meta.get('fingerprint'), fp)}): --force restarts it",
-                       conflict=(rd.checkpoint, meta.get("fingerprint"), fp))
-        try:
-            n = frame_count(rd.partial)
-        except Exception as exc:  # noqa: BLE001 - missing or unreadable partial trajectory
-            return out("start", 0, f"restart ({type(exc).__name__}: no usable partial trajectory)")
-        if n < int(meta.get("frames", 0)):
-            return out("start", 0, f"restart (partial trajectory has {n} frames, checkpoint needs "
-                                   f"{meta.get('frames')})")
-        step = int(meta.get("step", 0))
-        return out("resume", step, f"from step {step}")
-    return out("start", 0, "restart" if word in (schema.FAILED, schema.RUNNING) else "")
+    if ck is None:
+        return None
+    meta = split_meta(ck)[1]
+    if not same_physics(meta.get("fingerprint"), fp):
+        return look.out("blocked", 0, f"checkpoint from other run settings "
+                                      f"({settings_change(meta.get('fingerprint'), fp)}): --force restarts it",
+                        conflict=(rd.checkpoint, meta.get("fingerprint"), fp))
+    try:
+        n = frame_count(rd.partial)
+    except Exception as exc:  # noqa: BLE001 - missing or unreadable partial trajectory
+        return look.out("start", 0, f"restart ({type(exc).__name__}: no usable partial trajectory)")
+    if n < int(meta.get("frames", 0)):
+        return look.out("start", 0, f"restart (partial trajectory has {n} frames, checkpoint needs "
+                                    f"{meta.get('frames')})")
+    step = int(meta.get("step", 0))
+    return look.out("resume", step, f"from step {step}")

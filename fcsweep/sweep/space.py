@@ -11,7 +11,7 @@ from typing import Sequence
 from fcsweep.config import RunSpec, SweepConfig
 from fcsweep.io import schema
 from fcsweep.io.rundir import free_bytes
-from fcsweep.io.status import read_status
+from fcsweep.io.sweepdir import run_state
 from fcsweep.sweep.length import extension_of
 from fcsweep.sweep.runner import SPACE_MARGIN, trajectory_bytes
 
@@ -70,8 +70,8 @@ def check_space(cfg: SweepConfig, specs: Sequence[RunSpec]) -> str | None:
 def _to_write(cfg: SweepConfig, spec: RunSpec) -> bool:
     """Whether the run will write a trajectory: not done, or done and to be extended (its
     trajectory is then rewritten in full)."""
-    st = read_status(cfg.run_dir(spec.run_id)) or {}
-    return st.get("status") != schema.DONE or extension_of(cfg.run, st) is not None
+    rs = run_state(cfg.run_dir(spec.run_id))
+    return rs.state != schema.DONE or extension_of(cfg.run, rs.st) is not None
 
 
 def _mib(n: int) -> str:

@@ -9,14 +9,13 @@ has (``outdated``: e.g. ``steps 2000 -> 4000``).
 
 from __future__ import annotations
 
-import json
 from collections import Counter
 from pathlib import Path
 from typing import Any
 
 from fcsweep.config import SweepConfig
 from fcsweep.io import schema
-from fcsweep.io.rundir import RunDirectory
+from fcsweep.io.rundir import RunDirectory, analysis_is_current
 from fcsweep.io.sweepdir import run_state
 from fcsweep.sweep.length import extension_of, frames_done
 from fcsweep.sweep.lifecycle import fingerprint_of, settings_change
@@ -24,11 +23,13 @@ from fcsweep.sweep.lifecycle import fingerprint_of, settings_change
 __all__ = ["collect_status", "format_status", "summary_line", "cost_line", "cost_totals", "analysis_state",
            "settings_change", "advice", "left_line", "STATES", "LEGEND"]
 
-#: Displayed states; ``interrupted`` is a run stopped by a signal or a ``running`` status
-#: whose lock is gone or stale (the next ``fcsweep simulate`` resumes it from its
-#: checkpoint); ``corrupt`` a done run whose trajectory failed verification (the next
-#: ``fcsweep simulate`` recomputes it).
-STATES = ("done", "running", "interrupted", "failed", "corrupt", "pending")
+#: The states of :data:`fcsweep.io.schema.STATUSES` (:func:`fcsweep.io.sweepdir.run_state`)
+#: in display order: finished, in flight, stopped, not started.  ``interrupted`` is a run
+#: stopped by a signal or a ``running`` status whose lock is gone or stale (the next
+#: ``fcsweep simulate`` resumes it from its checkpoint); ``corrupt`` a done run whose
+#: trajectory failed verification (the next ``fcsweep simulate`` recomputes it).
+STATES = tuple(sorted(schema.STATUSES, key=(schema.DONE, schema.RUNNING, schema.INTERRUPTED, schema.FAILED,
+                                            schema.CORRUPT, schema.PENDING).index))
 
 #: What the less obvious columns of :func:`format_status` mean (printed under the table).
 LEGEND = ("projected: % of the run's cell-steps whose shape left the admissible set and was scaled back "
@@ -132,27 +133,15 @@ def left_line(rows: list[dict[str, Any]]) -> str:
 
 
 def analysis_state(run_dir, transient: float, settings: dict | None = None) -> str:
-    """``yes``, ``stale`` or ``no``: is the run's ``analysis.h5`` there and up to date --
-    not older than the trajectory, and made with ``settings`` (if given) or at least
-    with the config's ``transient``?"""
+    """``yes``, ``stale`` or ``no``: is the run's ``analysis.h5`` there and up to date
+    (:func:`fcsweep.io.rundir.analysis_is_current` against the run's trajectory, with
+    ``settings`` if given, else the config's ``transient``)?"""
     run_dir = Path(run_dir)
     path = run_dir / schema.ANALYSIS
-    traj = run_dir / schema.TRAJECTORY
     if not path.exists():
         return "no"
-    try:
-        if traj.exists() and traj.stat().st_mtime > path.stat().st_mtime:
-            return "stale"
-        import h5py
-
-        with h5py.File(path, "r", locking=False) as f:
-            used = json.loads(f.attrs.get("settings_json", "{}"))
-    except (OSError, ValueError):
-        return "stale"  # unreadable: `fcsweep analyze` recomputes it
-    if settings is not None:
-        return "yes" if used == settings else "stale"
-    t = used.get("transient")
-    return "stale" if t is not None and abs(float(t) - float(transient)) > 1e-12 else "yes"
+    current = analysis_is_current(path, run_dir / schema.TRAJECTORY, settings=settings, transient=transient)
+    return "yes" if current else "stale"
 
 
 def summary_line(rows: list[dict[str, Any]]) -> str:
