@@ -140,3 +140,34 @@ def test_bench_times_each_integrator_and_compares_only_rules_it_can_use(tmp_path
     out = json.loads(r.output[r.output.index("{"):])
     got = {(row["integrator"], row["quadrature"]) for row in out["rows"]}
     assert got == {("euler", "binary"), ("euler", "arc"), ("contact-jacobi", "arc")}
+
+
+def test_help_lists_every_command_in_the_declared_order():
+    from fcsweep.cli import COMMAND_ORDER
+
+    assert sorted(COMMAND_ORDER) == sorted(cli.commands)  # a new command must be placed in the order
+    r = CliRunner().invoke(cli, ["--help"])
+    listed = [line.split()[0] for line in r.output.split("Commands:")[1].splitlines() if line.strip()]
+    assert listed == list(COMMAND_ORDER)
+
+
+def test_executor_dask_without_distributed_stops_before_any_run(tmp_path, monkeypatch):
+    """Without the `cluster` extra, `--executor dask` says what to install in one line and
+    exits 2 before anything is written."""
+    import builtins
+
+    real_import = builtins.__import__
+
+    def no_distributed(name, *args, **kwargs):
+        if name == "distributed" or name.startswith("distributed."):
+            raise ImportError("No module named 'distributed'")
+        return real_import(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", no_distributed)
+    monkeypatch.chdir(tmp_path)
+    r = CliRunner().invoke(cli, ["simulate", str(ROOT / "configs" / "smoke.yaml"), "-o", "out", "--executor", "dask",
+                                 "--scheduler", "tcp://127.0.0.1:1"])
+    assert r.exit_code == 2, r.output
+    lines = r.stderr.splitlines()
+    assert len(lines) == 1 and 'pip install "fcsweep[cluster]"' in lines[0], r.stderr
+    assert os.listdir(tmp_path) == []
