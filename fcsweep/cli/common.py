@@ -12,8 +12,6 @@ import click
 from fcsweep.config import ConfigError, SweepConfig, builtin_demo_path, check_runnable, load_config
 
 CONFIG_ARG = click.argument("config", required=False, type=click.Path(dir_okay=False))
-
-
 OUTPUT_OPT = click.option(
     "--output", "-o", type=click.Path(file_okay=False), default=None,
     help="Override the config's output directory.",
@@ -47,6 +45,7 @@ def status_rows(cfg, *, verify: bool = False):
 
 
 def say(msg: str) -> None:
+    """Echo ``fcsweep: <msg>`` to stderr."""
     click.echo(f"fcsweep: {msg}", err=True)
 
 
@@ -74,6 +73,8 @@ def config_arg(config: str | None, output: str | None) -> str:
 
 
 def wrong_dir_hint(config, output) -> str:
+    """What to check when a results command finds nothing: the config and -o, or that
+    without CONFIG the built-in demo's directory was read."""
     if config or output:
         return "is this the config (and -o) that wrote the sweep?"
     return "without CONFIG every command uses the built-in demo in ./fcsweep-demo; give your sweep's config"
@@ -121,7 +122,7 @@ def trajectory_or_exit(cfg, run, out, config, output) -> Path:
         sys.exit(2)
     if not traj.exists():
         nothing(f"run {run} has no finished trajectory in {out} ({traj.parent.name}; "
-                 f"{wrong_dir_hint(config, output)})")
+                f"{wrong_dir_hint(config, output)})")
     return traj
 
 

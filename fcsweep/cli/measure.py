@@ -48,7 +48,7 @@ def measure(images, output, pixel_size, frame_interval, times, length_unit, time
 
     if not images:
         say("no IMAGES: measuring the built-in example (64 simulated cells, eta = 0.01, v0 = 0.06, "
-             "10 px per R0; lengths in R0)")
+            "10 px per R0; lengths in R0)")
     try:
         with results_command(say, "--output"):
             path = measure_to_dir(images, output, pixel_size=pixel_size, frame_interval=frame_interval,

@@ -40,7 +40,7 @@ def status(config, output, as_json, verify):
         click.echo(summary)  # the last line, as scripts expect
     if not started:
         nothing(f"nothing simulated in {out}: all {len(rows)} runs are pending "
-                 f"({wrong_dir_hint(config, output)})")
+                f"({wrong_dir_hint(config, output)})")
     if verify and any(r["state"] == "corrupt" for r in rows):
         sys.exit(1)
 
@@ -61,11 +61,11 @@ def analyze(config, output, workers, force):
     rows = status_rows(cfg)
     if not any(r["state"] == "done" for r in rows):
         nothing(f"nothing to analyse in {out}: no run is done ({summary_line(rows)}; "
-                 f"{wrong_dir_hint(config, output)})")
+                f"{wrong_dir_hint(config, output)})")
     old = [r for r in rows if r.get("outdated")]
     if old:
         say(f"{len(old)} done run(s) were computed with other run settings than this config "
-             f"({old[0]['outdated']}); they are analysed as they are")
+            f"({old[0]['outdated']}); they are analysed as they are")
     with results_command(say):
         probe_writable(out)
         results = analyze_sweep(cfg, workers=workers, force=force, say=say)
@@ -75,7 +75,7 @@ def analyze(config, output, workers, force):
     if n[UNWRITTEN]:
         why = next(msg for _, st, msg in results if st == UNWRITTEN)
         say(f"{n[UNWRITTEN]} analysis file(s) could not be written (previous ones kept), {n['done']} written, "
-             f"{n['failed']} failed; first: {why}")
+            f"{n['failed']} failed; first: {why}")
         sys.exit(1 if n["done"] else 2)
     if n["failed"]:
         sys.exit(1)
