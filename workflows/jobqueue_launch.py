@@ -106,14 +106,16 @@ def main(argv=None) -> int:
         if not args.local:
             cluster.scale(jobs=args.jobs)
         from fcsweep.sweep.executors import run_sweep, select_runs
+        from fcsweep.sweep.options import SweepOptions
         from fcsweep.sweep.progress import Progress
 
         specs = select_runs(cfg, retry_failed=args.retry_failed)
         print(f"{len(specs)} run(s) -> {cfg.output} via {cluster.scheduler_address}", file=sys.stderr)
         progress = Progress(len(specs), log_every=300)
         try:
-            outcomes = run_sweep(cfg, specs, executor="dask", scheduler=cluster.scheduler_address,
-                                 progress=progress, retry_failed=args.retry_failed)
+            options = SweepOptions(executor="dask", scheduler=cluster.scheduler_address,
+                                   retry_failed=args.retry_failed)
+            outcomes = run_sweep(cfg, specs, options, progress=progress)
         finally:
             progress.close()
     finally:
