@@ -266,3 +266,21 @@ def test_the_phase_diagram_takes_its_words_from_the_code_and_the_text_only_witho
     # blank text, code set: the code's words; code not_recorded: the text's
     assert texts == ["<q> near 3.81", "few lags past breaking", "too short"]
     matplotlib.pyplot.close("all")
+
+
+def test_start_and_point_reason_codes_of_two_starts():
+    from test_point_labels import _two_start_dataset
+
+    from fcsweep.analysis.aggregate import _point_labels
+
+    ds = _two_start_dataset()
+    _point_labels(ds, 0.95, 0.5)
+    start = np.vectorize(reason_name)(ds["phase_start_reason_code"].isel(eta=0, N=0).values)
+    # per v0 (disordered, lattice): both solid; fluid / solid; too short / fluid
+    assert start.tolist() == [["solid_cages_intact"] * 2, ["decided_cages_broken", "solid_cages_intact"],
+                              ["too_short", "decided_cages_broken"]]
+    point = [reason_name(c) for c in ds["phase_point_reason_code"].isel(eta=0, N=0).values]
+    assert point == ["solid_cages_intact", "starts_disagree", "too_short"]
+    for k in FAMILIES:
+        for v in (f"{k}_start_reason_code", f"{k}_point_reason_code"):
+            assert ds[v].attrs["flag_meanings"].split() == list(reason_flags(k).values())
