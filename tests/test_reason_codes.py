@@ -284,3 +284,20 @@ def test_start_and_point_reason_codes_of_two_starts():
     for k in FAMILIES:
         for v in (f"{k}_start_reason_code", f"{k}_point_reason_code"):
             assert ds[v].attrs["flag_meanings"].split() == list(reason_flags(k).values())
+
+
+def test_the_figure_words_over_starts_and_replicates():
+    from fcsweep.analysis.figures.diagrams import _point_reasons
+    from fcsweep.analysis.phase import PHASE_FLAGS, flag_attrs
+
+    dims = ("eta", "v0", "initial", "replicate")
+    ds = xr.Dataset(coords={"eta": [0.1], "v0": [0.01, 0.02, 0.03], "initial": ["disordered", "lattice"],
+                            "replicate": [0, 1]})
+    S, F, U = PHASE_SOLID, PHASE_FLUID, PHASE_UNDETERMINED
+    phase = np.array([[[[S, S], [F, F]], [[S, F], [F, F]], [[S, S], [S, U]]]], dtype=np.int8)
+    code = np.full(phase.shape, reason_value("decided_cages_broken"), dtype=np.int8)
+    code[0, 2, 1, 1] = reason_value("too_short")
+    ds["phase"] = (dims, phase, flag_attrs(PHASE_FLAGS))
+    ds["phase_reason_code"] = (dims, code)
+    words = _point_reasons(ds, ("v0", "eta"), None)[:, 0].tolist()
+    assert words == ["starts disagree", "replicates disagree", "too short"]

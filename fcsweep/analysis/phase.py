@@ -30,6 +30,9 @@ fluid against soft fluid; without broken cages only *solid* can be decided, from
 trustworthy ``D_eff_cr`` (:func:`solid_test_estimate`) with P(solid) (1 - P(broken)) >=
 ``min_confidence``; otherwise the label is undetermined ("a longer run decides").
 :func:`classify_phase` without cage evidence is the plain D_eff test.
+
+Every :class:`Label` carries beside its reason text a ``reason_code``, one of the declared
+:data:`fcsweep.analysis.reasons.REASONS` (``too_short``, ``near_d_threshold``, ...).
 """
 
 from __future__ import annotations

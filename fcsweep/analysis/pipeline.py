@@ -96,7 +96,7 @@ SCALARS = RUN_SCALARS + LABELS
 #: KTHNY fit results (:func:`fcsweep.analysis.kthny.kthny_fits`) stored per run.
 KTHNY_FIT_KEYS = ("eta_G1", "eta_G1_err", "eta_T", "eta_T_err", "xi_T", "xi_T_err", "eta_6", "eta_6_err",
                   "xi_6", "xi_6_err")
-KTHNY_SCALARS = KTHNY_FIT_KEYS + ("kthny", "kthny_confidence")
+KTHNY_SCALARS = KTHNY_FIT_KEYS + ("kthny", "kthny_confidence", "kthny_reason_code")
 #: Label explanations stored as string attributes of ``/observables``.
 REASONS = ("phase_reason", "percolated_reason", "kthny_reason")
 

@@ -19,7 +19,7 @@ from fcsweep.analysis.figures.common import (CAPTION_SIZE, COLUMN, ETA_LABEL, OK
                                              _eta_axis, _flag_words, _grid_ticks, _log_axis, _phase_words, _plane,
                                              _select, _styled, _tidy_log, _value_colorbar)
 from fcsweep.analysis.phase import KTHNY_FLAGS, RHO_D_PERCOLATION
-from fcsweep.analysis.reasons import reason_short
+from fcsweep.analysis.reasons import reason_short, reason_value
 from fcsweep.model.shape import Q_STAR
 
 
@@ -85,9 +85,10 @@ def short_reason(text, words: int = 3) -> str:
 
 
 def _point_reasons(ds, keep, select, label="phase") -> np.ndarray:
-    """The reason of every point of the plane in short words; over replicates, the first
-    replicate's whose label is not accepted (undetermined or unknown), or "replicates
-    disagree" where accepted labels differ. The words come from ``<label>_reason_code``
+    """The reason of every point of the plane in short words; over replicates and starts
+    (``initial``), the first run's whose label is not accepted (undetermined or unknown),
+    or "replicates disagree" / "starts disagree" where accepted labels differ (the
+    replicates of one start first). The words come from ``<label>_reason_code``
     (:func:`fcsweep.analysis.reasons.reason_short`); only where a run has no code (a
     dataset written before the codes, such as those under docs/repro/archive, or code
     ``not_recorded``) from the reason text by :func:`short_reason`."""
@@ -101,22 +102,24 @@ def _point_reasons(ds, keep, select, label="phase") -> np.ndarray:
     rc_da = ds[cname] if cname in ds else xr.zeros_like(codes)
     words = _flag_words(codes)
     bad = [c for c, w in words.items() if w in ("undetermined", "unknown")]
-    over = "replicate" in codes.dims and "replicate" not in keep
-    dims = tuple(keep) + (("replicate",) if over else ())
-    text, rc = (_select(d.broadcast_like(codes), dims, select).values for d in (text_da, rc_da))
-    code = _select(codes, dims, select).values
-    if not over:
-        text, rc, code = text[..., None], rc[..., None], code[..., None]
+    over = tuple(d for d in ("initial", "replicate") if d in codes.dims and d not in keep)
+    n_start = ds.sizes["initial"] if "initial" in over else 1
+
+    def plane(da):  # per point: (starts, replicates), length 1 where not reduced
+        da = da.load().broadcast_like(codes)
+        return _select(da, tuple(keep) + over, select).values.reshape(shape + (n_start, -1))
+
+    text, rc, code = plane(text_da), plane(rc_da), plane(codes)
     out = np.full(shape, "", dtype=object)
     for idx in np.ndindex(*shape):
-        c = code[idx]
-        accepted = [int(v) for v in c if int(v) not in bad]
-        not_ok = [k for k, v in enumerate(c) if int(v) in bad]
-        if not_ok or len(set(accepted)) <= 1:
-            k = not_ok[0] if not_ok else 0
+        c = code[idx].astype(int)
+        ok = ~np.isin(c, bad)
+        if not ok.all() or len(set(c[ok].tolist())) <= 1:
+            k = np.unravel_index(int(np.argmin(ok)), c.shape)
             out[idx] = reason_short(rc[idx][k]) or short_reason(text[idx][k])
         else:
-            out[idx] = short_reason("replicates disagree")
+            split = any(len(set(row[m].tolist())) > 1 for row, m in zip(c, ok))
+            out[idx] = reason_short(reason_value("replicates_disagree" if split else "starts_disagree"))
     return out
 
 
