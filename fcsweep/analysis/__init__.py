@@ -8,6 +8,7 @@ shapes     shape index q per cell and frame, its mean and histogram
 voronoi    periodic Voronoi neighbours (freud), defect cells, defect clusters
 order      hexatic order psi6, |Psi6|, G6(r) and the translational cut G_r(dx, 0)
 phase      solid / fluid / soft-fluid and percolation labels, with confidence or undetermined
+reasons    the declared reason codes every label carries beside its reason text
 stats      time averages of correlated series with honest errors; replicate reduction
 percolation  Fisher exponent of defect cluster sizes, calibrated on exact percolation
 trajectory reading one H5MD trajectory (file access, used by the pipeline only)

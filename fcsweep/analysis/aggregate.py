@@ -43,11 +43,12 @@ import xarray as xr
 from fcsweep import __version__
 from fcsweep.analysis.phase import (KTHNY_FLAGS, KTHNY_UNDETERMINED, MIN_CONFIDENCE, PERCOLATION_FLAGS, PHASE_FLAGS,
                                     RHO_D_PERCOLATION, flag_attrs)
-from fcsweep.analysis.points import COMBINED, DECIDED, HYSTERESIS_FLAGS, LEAST, agree, point_labels
+from fcsweep.analysis.points import COMBINED, DECIDED, HYSTERESIS_FLAGS, LEAST, agree, common_reason, point_labels
+from fcsweep.analysis.reasons import reason_flags, reason_value
 from fcsweep.analysis.fss import FSS_BOOTSTRAP, fss_collapse
 from fcsweep.analysis.percolation import fisher_observables
 from fcsweep.analysis.stats import combine
-from fcsweep.io.observables import OBSERVABLES, REPLICATE_REDUCED, RUN_SCALARS, TEXTS
+from fcsweep.io.observables import OBSERVABLES, REASON_CODES, REPLICATE_REDUCED, RUN_SCALARS, TEXTS
 from fcsweep.io.status import read_status
 from fcsweep.io.failures import remove_stale
 from fcsweep.io.sweepdir import atomic_write, run_path, run_state
@@ -146,6 +147,7 @@ def build_dataset(config) -> xr.Dataset:
     entries = []
     status = np.full(shape, 5, dtype=np.int8)
     strings = {v: np.full(shape, "", dtype=object) for v in STRING_VARS}
+    rcodes = {v: np.full(shape, reason_value("not_analysed"), dtype=np.int8) for v in REASON_CODES}
     commits = set()
     settings = None
     for spec in runs:
@@ -173,6 +175,8 @@ def build_dataset(config) -> xr.Dataset:
         settings = settings or res["settings"]
         for v in ("phase_reason", "percolated_reason", "kthny_reason"):
             strings[v][loc] = str(res["scalars"].get(v, ""))
+        for v in REASON_CODES:  # an analysis.h5 older than the codes: not_recorded (0)
+            rcodes[v][loc] = int(res["scalars"].get(v, reason_value("not_recorded")))
         try:
             commit = json.loads(res["attrs"].get("parameters_json", "{}")).get("git_commit")
         except ValueError:
@@ -242,6 +246,8 @@ def build_dataset(config) -> xr.Dataset:
     ds["status"] = (dims, status, {**_attrs("status"), **flag_attrs(STATUS_FLAGS)})
     for v, arr in strings.items():
         ds[v] = (dims, arr, _attrs(v))
+    for v, arr in rcodes.items():
+        ds[v] = (dims, arr, {**_attrs(v), **flag_attrs(reason_flags(v.removesuffix("_reason_code")))})
     settings = {**(settings or {}), **config_settings(config)}  # the config's label settings rule the points
     _reduce_replicates(ds, settings)
     now = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
@@ -323,17 +329,25 @@ def _point_labels(ds: xr.Dataset, conf: float, threshold: float) -> None:
     shape = st.shape[:-1]
     out = {k: np.full(shape, -1, dtype=np.int8) for k in ("phase", "percolated")}
     cf = {k: np.full(shape, np.nan) for k in ("phase", "percolated")}
+    why = {k: np.full(shape, -1, dtype=np.int8) for k in ("phase", "percolated")}
     for idx in np.ndindex(shape):
         runs = [{v: float(vals[v][idx + (r,)]) for v in names} for r in np.flatnonzero(st[idx] == 0)]
         ph, pc = point_labels(runs, min_confidence=conf, percolation_threshold=threshold)
         out["phase"][idx], cf["phase"][idx] = ph.code, ph.confidence
         out["percolated"][idx], cf["percolated"][idx] = pc.code, pc.confidence
+        why["phase"][idx], why["percolated"][idx] = reason_value(ph.reason_code), reason_value(pc.reason_code)
     out["kthny"], cf["kthny"] = _kthny_common(ds)
+    why["kthny"] = common_reason(out["kthny"], ds["kthny"].transpose(..., "replicate").values,
+                                 ds.get("kthny_reason_code", 0 * ds["kthny"]).transpose(..., "replicate").values,
+                                 DECIDED["kthny"][0],
+                                 disagree="replicates_disagree", agree_="replicates_agree")
     flags = {"phase": PHASE_FLAGS, "percolated": PERCOLATION_FLAGS, "kthny": KTHNY_FLAGS}
     if "initial" not in dims:
         for k in ("phase", "percolated", "kthny"):
             ds[f"{k}_point"] = (dims, out[k], {**_attrs(f"{k}_point"), **flag_attrs(flags[k])})
             ds[f"{k}_point_confidence"] = (dims, cf[k], _attrs(f"{k}_point_confidence"))
+            ds[f"{k}_point_reason_code"] = (dims, why[k], {**_attrs(f"{k}_point_reason_code"),
+                                                           **flag_attrs(reason_flags(k))})
         return
     axis = dims.index("initial")
     pdims = [d for d in dims if d != "initial"]
@@ -344,6 +358,12 @@ def _point_labels(ds: xr.Dataset, conf: float, threshold: float) -> None:
         code, conf_k, hyst = agree(np.moveaxis(out[k], axis, -1), np.moveaxis(cf[k], axis, -1), decided, undetermined)
         ds[f"{k}_point"] = (pdims, code, {**_attrs(f"{k}_point"), **flag_attrs(flags[k])})
         ds[f"{k}_point_confidence"] = (pdims, conf_k, _attrs(f"{k}_point_confidence"))
+        rc_k = common_reason(code, np.moveaxis(out[k], axis, -1), np.moveaxis(why[k], axis, -1), decided,
+                             disagree="starts_disagree", agree_="starts_agree")
+        ds[f"{k}_start_reason_code"] = (dims, why[k], {**_attrs(f"{k}_start_reason_code"),
+                                                       **flag_attrs(reason_flags(k))})
+        ds[f"{k}_point_reason_code"] = (pdims, rc_k, {**_attrs(f"{k}_point_reason_code"),
+                                                      **flag_attrs(reason_flags(k))})
         if k == "phase":
             ds["phase_hysteresis"] = (pdims, hyst, {**_attrs("phase_hysteresis"), **flag_attrs(HYSTERESIS_FLAGS)})
 

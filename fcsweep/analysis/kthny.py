@@ -447,35 +447,40 @@ def classify_kthny(fits: dict, *, min_confidence: float = MIN_CONFIDENCE, n_cell
     if n_cells is not None and n_cells < MIN_CELLS:
         return Label(KTHNY_UNDETERMINED, float("nan"),
                      f"N = {n_cells} < {MIN_CELLS}: C_G1 and G6 need distances up to half a box of at least "
-                     f"{MIN_CELLS} cells")
+                     f"{MIN_CELLS} cells", "too_few_cells")
     # a curve sunk into its noise is tested against the slowest decay its bound allows
     # (r^(-1/4) or r^(-1/3) from its last point 5 errors above zero), not taken as short-ranged outright
     if fits.get("six_sunk"):
         p6 = fits.get("six_p_bound", 0.0)
         if not np.isfinite(p6):
-            return Label(KTHNY_UNDETERMINED, float("nan"), "G6 fell into its noise with too few points to test")
+            return Label(KTHNY_UNDETERMINED, float("nan"), "G6 fell into its noise with too few points to test",
+                         "g6_noise_untestable")
     else:
         p6 = _p_below(fits["eta_6"], fits["eta_6_err"], ETA_6_MAX)
         if not np.isfinite(p6):
-            return Label(KTHNY_UNKNOWN, float("nan"), "G6 could not be fitted")
+            return Label(KTHNY_UNKNOWN, float("nan"), "G6 could not be fitted", "g6_not_fitted")
     if not fits.get("G1_computed", False):
-        pT, why_T = float("nan"), "C_G1 not computed: the translational order cannot be decided"
+        pT, why_T = float("nan"), ("C_G1 not computed: the translational order cannot be decided", "cg1_not_computed")
     elif not fits.get("G1_errors", False):
         # one frame: the fit's errors come from its residuals alone and a curve in its noise
         # cannot be told from a slow decay
-        pT, why_T = float("nan"), "C_G1 has no error estimate (one frame): its decay cannot be told from noise"
+        pT, why_T = float("nan"), ("C_G1 has no error estimate (one frame): its decay cannot be told from noise",
+                                   "no_error")
     elif fits.get("G1_sunk"):
-        pT, why_T = fits.get("G1_p_bound", 0.0), "C_G1 fell into its noise with too few points to test"
+        pT, why_T = fits.get("G1_p_bound", 0.0), ("C_G1 fell into its noise with too few points to test",
+                                                  "cg1_noise_untestable")
     else:
-        pT, why_T = _p_below(fits["eta_G1"], fits["eta_G1_err"], ETA_T_MAX), "C_G1 could not be fitted"
+        pT, why_T = _p_below(fits["eta_G1"], fits["eta_G1_err"], ETA_T_MAX), ("C_G1 could not be fitted",
+                                                                              "cg1_not_fitted")
     if not np.isfinite(pT):
         if p6 > 1 - min_confidence:  # not liquid by G6 alone: the translational order must decide
-            return Label(KTHNY_UNDETERMINED, float("nan"), why_T)
+            return Label(KTHNY_UNDETERMINED, float("nan"), *why_T)
         pT = 0.0
     p = {KTHNY_SOLID: pT * p6, KTHNY_HEXATIC: (1.0 - pT) * p6, KTHNY_LIQUID: 1.0 - p6}
     best = max(p, key=lambda k: p[k])
     conf = float(p[best])
     what = ", ".join(_describe(fits, k, b) for k, b in (("G1", "1/3"), ("6", "1/4")))
     if conf < min_confidence:
-        return Label(KTHNY_UNDETERMINED, conf, f"{what}: P({kthny_name(best)}) = {conf:.2f} < {min_confidence:.2f}")
-    return Label(int(best), conf, f"P({kthny_name(best)}) = {conf:.3f}: {what}")
+        return Label(KTHNY_UNDETERMINED, conf, f"{what}: P({kthny_name(best)}) = {conf:.2f} < {min_confidence:.2f}",
+                     "near_kthny_bounds")
+    return Label(int(best), conf, f"P({kthny_name(best)}) = {conf:.3f}: {what}", "decided_exponents")

@@ -30,6 +30,9 @@ fluid against soft fluid; without broken cages only *solid* can be decided, from
 trustworthy ``D_eff_cr`` (:func:`solid_test_estimate`) with P(solid) (1 - P(broken)) >=
 ``min_confidence``; otherwise the label is undetermined ("a longer run decides").
 :func:`classify_phase` without cage evidence is the plain D_eff test.
+
+Every :class:`Label` carries beside its reason text a ``reason_code``, one of the declared
+:data:`fcsweep.analysis.reasons.REASONS` (``too_short``, ``near_d_threshold``, ...).
 """
 
 from __future__ import annotations
@@ -41,6 +44,7 @@ from scipy.special import ndtr
 
 from fcsweep.analysis.cage import broken_probability
 from fcsweep.analysis.diffusion import D_EFF_SOLID
+from fcsweep.analysis.reasons import REASON_BY_NAME
 from fcsweep.model.shape import Q_STAR
 
 #: Percolation threshold of the defect fraction (site percolation on a triangular lattice).
@@ -86,11 +90,18 @@ def phase_name(code: int) -> str:
 @dataclass(frozen=True)
 class Label:
     """A label with its confidence: ``code`` (see the flag tables), ``confidence``
-    (probability of the most probable label, NaN when unknown) and ``reason``."""
+    (probability of the most probable label, NaN when unknown), ``reason`` (free text) and
+    ``reason_code`` (a name of :data:`fcsweep.analysis.reasons.REASONS`: what decided, or
+    why nothing did)."""
 
     code: int
     confidence: float
     reason: str
+    reason_code: str
+
+    def __post_init__(self):
+        if self.reason_code not in REASON_BY_NAME:
+            raise ValueError(f"undeclared reason code {self.reason_code!r}")
 
 
 def _p_above(x: float, err: float, threshold: float) -> float:
@@ -122,7 +133,8 @@ def _fmt(x: float, e: float) -> str:
 
 
 def classify_phase(D_eff, D_eff_err, q_mean, q_mean_err, *, diffusion_ok: bool = True,
-                   diffusion_note: str = "", cage_broken: float | None = None, cage_note: str = "",
+                   diffusion_note: str = "", diffusion_code: str = "not_diffusive",
+                   cage_broken: float | None = None, cage_note: str = "",
                    D_late: float = float("nan"), D_late_err: float = float("nan"),
                    min_confidence: float = MIN_CONFIDENCE, d_solid: float = D_EFF_SOLID,
                    q_star: float = Q_STAR) -> Label:
@@ -134,7 +146,8 @@ def classify_phase(D_eff, D_eff_err, q_mean, q_mean_err, *, diffusion_ok: bool =
         Estimates and 1-sigma errors.
     diffusion_ok : bool
         False when the D_eff estimate cannot be trusted (run too short, MSD not
-        diffusive): D_eff then decides nothing, and ``diffusion_note`` is the reason.
+        diffusive): D_eff then decides nothing, ``diffusion_note`` is the reason and
+        ``diffusion_code`` its reason code (``not_diffusive`` or ``too_short``).
     cage_broken : float, optional
         Probability that the cells left their cages within the window
         (:mod:`fcsweep.analysis.cage`; NaN: no cage test). Given, this is the phase rule
@@ -151,31 +164,31 @@ def classify_phase(D_eff, D_eff_err, q_mean, q_mean_err, *, diffusion_ok: bool =
     D, De, q, qe = (float(v) for v in (D_eff, D_eff_err, q_mean, q_mean_err))
     if cage_broken is not None:
         ev = PhaseEvidence(D, De, bool(diffusion_ok), diffusion_note, float(cage_broken), cage_note,
-                           float(D_late), float(D_late_err), q, qe)
+                           float(D_late), float(D_late_err), q, qe, diffusion_code)
         return phase_label(ev, min_confidence=min_confidence, d_solid=d_solid, q_star=q_star)
     if not np.isfinite(D):
-        return Label(PHASE_UNKNOWN, float("nan"), "D_eff not available")
+        return Label(PHASE_UNKNOWN, float("nan"), "D_eff not available", "not_available")
     if not np.isfinite(De):
-        return Label(PHASE_UNDETERMINED, float("nan"), "D_eff has no error estimate")
+        return Label(PHASE_UNDETERMINED, float("nan"), "D_eff has no error estimate", "no_error")
     if np.isfinite(q) and np.isfinite(qe):
         p = phase_probabilities(D, De, q, qe, d_solid=d_solid, q_star=q_star)
     else:
         p = {PHASE_SOLID: 1.0 - _p_above(D, De, d_solid)}
         if p[PHASE_SOLID] < min_confidence:  # fluid or soft fluid: <q> must decide
             if not np.isfinite(q):
-                return Label(PHASE_UNKNOWN, float("nan"), "<q> not available")
-            return Label(PHASE_UNDETERMINED, float("nan"), "<q> has no error estimate")
+                return Label(PHASE_UNKNOWN, float("nan"), "<q> not available", "not_available")
+            return Label(PHASE_UNDETERMINED, float("nan"), "<q> has no error estimate", "no_error")
     best = max(p, key=lambda k: p[k])
     conf = float(p[best])
     if not diffusion_ok:
-        return Label(PHASE_UNDETERMINED, conf, diffusion_note or "D_eff estimate not trustworthy")
+        return Label(PHASE_UNDETERMINED, conf, diffusion_note or "D_eff estimate not trustworthy", diffusion_code)
     if conf < min_confidence:
         if min(p[PHASE_SOLID], 1 - p[PHASE_SOLID]) >= 1 - min_confidence:
-            why = f"D_eff = {_fmt(D, De)} too close to the solid threshold {d_solid:g}"
+            why, rc = f"D_eff = {_fmt(D, De)} too close to the solid threshold {d_solid:g}", "near_d_threshold"
         else:
-            why = f"<q> = {_fmt(q, qe)} too close to {q_star:g}"
-        return Label(PHASE_UNDETERMINED, conf, f"{why} (P = {conf:.2f} < {min_confidence:.2f})")
-    return Label(int(best), conf, f"P({phase_name(best)}) = {conf:.3f}")
+            why, rc = f"<q> = {_fmt(q, qe)} too close to {q_star:g}", "near_q_star"
+        return Label(PHASE_UNDETERMINED, conf, f"{why} (P = {conf:.2f} < {min_confidence:.2f})", rc)
+    return Label(int(best), conf, f"P({phase_name(best)}) = {conf:.3f}", "decided_d_eff")
 
 
 @dataclass(frozen=True)
@@ -200,6 +213,8 @@ class PhaseEvidence:
         (neighbour-corrected); NaN where the cages did not break clearly.
     q, q_err : float
         ``<q>`` and its error.
+    trust_code : str
+        Reason code of ``trust_note`` (``too_short`` or ``not_diffusive``).
     """
 
     D_solid: float
@@ -212,6 +227,7 @@ class PhaseEvidence:
     D_late_err: float
     q: float
     q_err: float
+    trust_code: str = "not_diffusive"
 
 
 def solid_test_estimate(sc: dict) -> tuple[float, float]:
@@ -273,13 +289,14 @@ def phase_evidence(sc: dict, note: str | None = None) -> PhaseEvidence:
     has_cr = np.isfinite(sc.get("D_eff_cr", np.nan)) and np.isfinite(sc.get("D_eff_cr_err", np.nan))
     trusted = long_enough and (has_cr or _flag(sc, "msd_diffusive"))
     why = ""
+    code = "not_diffusive" if long_enough else "too_short"
     if not trusted:
         why = note or ("run too short for D_eff (a time block shorter than min_block_persistence / Dr)"
                        if not long_enough else "MSD not diffusive within the run")
     p, cage_note = cage_evidence(sc)
     return PhaseEvidence(D, De, trusted, why, p, cage_note, float(sc.get("D_eff_cr_late", np.nan)),
                          float(sc.get("D_eff_cr_late_err", np.nan)), float(sc.get("q_mean", np.nan)),
-                         float(sc.get("q_mean_err", np.nan)))
+                         float(sc.get("q_mean_err", np.nan)), code)
 
 
 def phase_label(ev: PhaseEvidence, *, min_confidence: float = MIN_CONFIDENCE, d_solid: float = D_EFF_SOLID,
@@ -307,22 +324,24 @@ def phase_label(ev: PhaseEvidence, *, min_confidence: float = MIN_CONFIDENCE, d_
         conf = float(p_solid_d * (1.0 - p_b if np.isfinite(p_b) else 1.0))
         if conf < min_confidence:
             return Label(PHASE_UNDETERMINED, conf, f"D_eff = {_fmt(D, De)} reads solid but the cages may be "
-                                                   f"broken (P = {p_b:.2f}); a longer run decides")
+                                                   f"broken (P = {p_b:.2f}); a longer run decides",
+                         "cages_may_be_broken")
         why = f"P(solid) = {conf:.3f}"
-        return Label(PHASE_SOLID, conf, f"{why}; {ev.cage_note}" if ev.cage_note else why)
+        return Label(PHASE_SOLID, conf, f"{why}; {ev.cage_note}" if ev.cage_note else why, "solid_cages_intact")
     conf = float(max(p_solid_d, 1.0 - p_solid_d)) if np.isfinite(p_solid_d) else float("nan")
     if not ev.solid_trusted:
-        why = ev.trust_note or "D_eff estimate not trustworthy"
+        why, rc = ev.trust_note or "D_eff estimate not trustworthy", ev.trust_code
     elif not np.isfinite(D):
-        return Label(PHASE_UNKNOWN, float("nan"), "D_eff not available")
+        return Label(PHASE_UNKNOWN, float("nan"), "D_eff not available", "not_available")
     elif not np.isfinite(De):
-        why = "D_eff has no error estimate"
+        why, rc = "D_eff has no error estimate", "no_error"
     elif p_solid_d <= 1.0 - min_confidence:
-        why = f"D_eff = {_fmt(D, De)} reads fluid"
+        why, rc = f"D_eff = {_fmt(D, De)} reads fluid", "fluid_cages_intact"
     else:
         why = f"D_eff = {_fmt(D, De)} too close to the solid threshold {d_solid:g} (P = {conf:.2f})"
+        rc = "near_d_threshold"
     cage = ev.cage_note or "no evidence that the cells left their cages"
-    return Label(PHASE_UNDETERMINED, conf, f"{why}; {cage}; a longer run decides")
+    return Label(PHASE_UNDETERMINED, conf, f"{why}; {cage}; a longer run decides", rc)
 
 
 def _broken_label(ev: PhaseEvidence, min_confidence, d_solid, q_star) -> Label:
@@ -331,29 +350,33 @@ def _broken_label(ev: PhaseEvidence, min_confidence, d_solid, q_star) -> Label:
     D, De, q, qe = ev.D_late, ev.D_late_err, ev.q, ev.q_err
     if not np.isfinite(D):
         return Label(PHASE_UNDETERMINED, float("nan"), f"{cages} but too few lags past the breaking for "
-                                                       "D_eff_cr_late; a longer run decides")
+                                                       "D_eff_cr_late; a longer run decides", "few_late_lags")
     if not (np.isfinite(De) and De > 0):
-        return Label(PHASE_UNDETERMINED, float("nan"), f"{cages} but D_eff_cr_late has no error estimate")
+        return Label(PHASE_UNDETERMINED, float("nan"), f"{cages} but D_eff_cr_late has no error estimate",
+                     "no_error")
     p_solid = 1.0 - _p_above(D, De, d_solid)
     late = f"D_eff_cr_late = {_fmt(D, De)}"
     if p_solid >= min_confidence:
-        return Label(PHASE_SOLID, float(p_solid), f"{cages}; {late}: P(solid) = {p_solid:.3f}")
+        return Label(PHASE_SOLID, float(p_solid), f"{cages}; {late}: P(solid) = {p_solid:.3f}",
+                     "decided_cages_broken")
     if p_solid > 1.0 - min_confidence:
         conf = float(max(p_solid, 1.0 - p_solid))
         return Label(PHASE_UNDETERMINED, conf, f"{cages}; {late} too close to the solid threshold {d_solid:g} "
-                                               f"(P = {conf:.2f} < {min_confidence:.2f}); a longer run decides")
+                                               f"(P = {conf:.2f} < {min_confidence:.2f}); a longer run decides",
+                     "near_d_threshold")
     if not np.isfinite(q):
-        return Label(PHASE_UNKNOWN, float("nan"), "<q> not available")
+        return Label(PHASE_UNKNOWN, float("nan"), "<q> not available", "not_available")
     if not np.isfinite(qe):
-        return Label(PHASE_UNDETERMINED, float("nan"), "<q> has no error estimate")
+        return Label(PHASE_UNDETERMINED, float("nan"), "<q> has no error estimate", "no_error")
     p_soft = _p_above(q, qe, q_star)
     p = {PHASE_SOFT_FLUID: (1.0 - p_solid) * p_soft, PHASE_FLUID: (1.0 - p_solid) * (1.0 - p_soft)}
     best = max(p, key=lambda k: p[k])
     conf = float(p[best])
     if conf < min_confidence:
         return Label(PHASE_UNDETERMINED, conf, f"{cages}; {late} but <q> = {_fmt(q, qe)} too close to "
-                                               f"{q_star:g} (P = {conf:.2f} < {min_confidence:.2f})")
-    return Label(int(best), conf, f"{cages}; {late}: P({phase_name(best)}) = {conf:.3f}")
+                                               f"{q_star:g} (P = {conf:.2f} < {min_confidence:.2f})",
+                     "near_q_star")
+    return Label(int(best), conf, f"{cages}; {late}: P({phase_name(best)}) = {conf:.3f}", "decided_cages_broken")
 
 
 def classify_percolation(rho_d, rho_d_err, *, min_confidence: float = MIN_CONFIDENCE,
@@ -361,16 +384,17 @@ def classify_percolation(rho_d, rho_d_err, *, min_confidence: float = MIN_CONFID
     """Percolation label of one run or point with its confidence and the reason."""
     r, e = float(rho_d), float(rho_d_err)
     if not np.isfinite(r):
-        return Label(-1, float("nan"), "rho_d not available")
+        return Label(-1, float("nan"), "rho_d not available", "not_available")
     if not np.isfinite(e):
-        return Label(PERCOLATION_UNDETERMINED, float("nan"), "rho_d has no error estimate")
+        return Label(PERCOLATION_UNDETERMINED, float("nan"), "rho_d has no error estimate", "no_error")
     p = _p_above(r, e, threshold)
     conf = max(p, 1 - p)
     if conf < min_confidence:
         return Label(PERCOLATION_UNDETERMINED, conf,
-                     f"rho_d = {_fmt(r, e)} too close to {threshold:g} (P = {conf:.2f} < {min_confidence:.2f})")
+                     f"rho_d = {_fmt(r, e)} too close to {threshold:g} (P = {conf:.2f} < {min_confidence:.2f})",
+                     "near_rho_threshold")
     code = int(p >= 0.5)
-    return Label(code, conf, f"P({PERCOLATION_FLAGS[code]}) = {conf:.3f}")
+    return Label(code, conf, f"P({PERCOLATION_FLAGS[code]}) = {conf:.3f}", "decided_rho_d")
 
 
 def percolation_code(rho_d, *, threshold: float = RHO_D_PERCOLATION):

@@ -53,11 +53,12 @@ from fcsweep.analysis import cage, diffusion, kthny, order, shapes, voronoi
 from fcsweep.analysis.msd import log_lag_indices, msd_curve
 from fcsweep.analysis.phase import (MIN_CONFIDENCE, RHO_D_PERCOLATION, cage_evidence, classify_percolation,  # noqa: F401
                                     phase_evidence, phase_label, phase_name, solid_test_estimate)
+from fcsweep.analysis.reasons import reason_flags, reason_value
 from fcsweep.analysis.stats import time_average
 from fcsweep.analysis.trajectory import TrajectoryError, open_trajectory
 from fcsweep.io import schema
 from fcsweep.io.machine import worker_layout
-from fcsweep.io.observables import CURVES, LABELS, RUN_SCALARS
+from fcsweep.io.observables import CURVES, LABELS, REASON_CODES, RUN_SCALARS
 from fcsweep.io.failures import Terminated, WriteFailure, advice, remove_stale
 from fcsweep.io.sweepdir import atomic_write, run_path, run_state
 
@@ -95,7 +96,7 @@ SCALARS = RUN_SCALARS + LABELS
 #: KTHNY fit results (:func:`fcsweep.analysis.kthny.kthny_fits`) stored per run.
 KTHNY_FIT_KEYS = ("eta_G1", "eta_G1_err", "eta_T", "eta_T_err", "xi_T", "xi_T_err", "eta_6", "eta_6_err",
                   "xi_6", "xi_6_err")
-KTHNY_SCALARS = KTHNY_FIT_KEYS + ("kthny", "kthny_confidence")
+KTHNY_SCALARS = KTHNY_FIT_KEYS + ("kthny", "kthny_confidence", "kthny_reason_code")
 #: Label explanations stored as string attributes of ``/observables``.
 REASONS = ("phase_reason", "percolated_reason", "kthny_reason")
 
@@ -293,11 +294,12 @@ def compute_observables(traj, settings: dict, *, curves: bool = True,
                 f"at another block length {sc['D_eff_long']:.3g} +- {sc['D_eff_long_err']:.2g}")
     conf = float(settings["label_confidence"])
     lab = phase_label(phase_evidence(sc, note), min_confidence=conf)
-    sc.update(phase=float(lab.code), phase_confidence=lab.confidence, phase_reason=lab.reason)
+    sc.update(phase=float(lab.code), phase_confidence=lab.confidence, phase_reason=lab.reason,
+              phase_reason_code=float(reason_value(lab.reason_code)))
     lab = classify_percolation(sc["rho_d"], sc["rho_d_err"], min_confidence=conf,
                                threshold=float(settings["percolation_threshold"]))
     sc.update(percolated=float(lab.code), percolated_confidence=lab.confidence,
-              percolated_reason=lab.reason)
+              percolated_reason=lab.reason, percolated_reason_code=float(reason_value(lab.reason_code)))
     if curves:
         cv["F_s"] = (cb.lags, cb.F_s)
         cv["cage_msd"] = (cb.lags, cb.cr_msd)
@@ -352,6 +354,7 @@ def _kthny(r, g6_frames, dx, gr_frames, n_cells: int, confidence: float, spacing
     """KTHNY fits and label from the per-frame G6(r), G_r(dx, 0) and C_G1(r) (NaN without curves)."""
     out = {k: np.nan for k in KTHNY_SCALARS}
     out["kthny_reason"] = "correlations not computed"
+    out["kthny_reason_code"] = float(reason_value("not_computed"))
     if r is None or g6_frames.size == 0 or gr_frames.size == 0:
         return out
     G6, G6e = _frame_mean(g6_frames)
@@ -362,7 +365,8 @@ def _kthny(r, g6_frames, dx, gr_frames, n_cells: int, confidence: float, spacing
     lab = kthny.classify_kthny(fits, min_confidence=confidence, n_cells=n_cells)
     for k in KTHNY_FIT_KEYS:
         out[k] = float(fits.get(k, np.nan))
-    out.update(kthny=float(lab.code), kthny_confidence=lab.confidence, kthny_reason=lab.reason)
+    out.update(kthny=float(lab.code), kthny_confidence=lab.confidence, kthny_reason=lab.reason,
+               kthny_reason_code=float(reason_value(lab.reason_code)))
     return out
 
 
@@ -399,6 +403,9 @@ def _write_h5(tmp: Path, traj, settings, sc, cv, extra) -> None:
             g.attrs[k] = np.float64(sc[k])
         for k in REASONS:
             g.attrs[k] = str(sc[k])
+        for k in REASON_CODES:  # int8 HDF5 enums: the file names its codes
+            flags = reason_flags(k.removesuffix("_reason_code"))
+            g.attrs.create(k, np.int8(sc[k]), dtype=h5py.enum_dtype({n: c for c, n in flags.items()}, basetype="i1"))
         c = f.create_group("curves")
         for name, coord in CURVES.items():
             x, y = cv[name]

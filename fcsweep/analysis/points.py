@@ -21,6 +21,7 @@ import numpy as np
 from fcsweep.analysis.phase import (KTHNY_UNDETERMINED, MIN_CONFIDENCE, PERCOLATION_UNDETERMINED,
                                     PHASE_UNDETERMINED, RHO_D_PERCOLATION, Label, classify_percolation,
                                     phase_evidence, phase_label)
+from fcsweep.analysis.reasons import reason_value
 from fcsweep.analysis.stats import combine
 
 #: Numbers the labels read, combined over replicates (each with ``<name>_err``).
@@ -72,9 +73,13 @@ def point_labels(runs, *, min_confidence: float = MIN_CONFIDENCE,
     runs = list(runs)
     if not runs:
         nan = float("nan")
-        return Label(-1, nan, "no analysed run"), Label(-1, nan, "no analysed run")
+        return (Label(-1, nan, "no analysed run", "no_analysed_run"),
+                Label(-1, nan, "no analysed run", "no_analysed_run"))
     sc = combine_runs(runs)
-    note = "a replicate's D_eff is not trustworthy" if len(runs) > 1 else None
+    note = None
+    if len(runs) > 1:  # the flags are the least favourable replicate's: the code says which failed
+        note = ("a replicate's run is too short for D_eff" if not sc["msd_long_enough"] >= 0.5
+                else "a replicate's D_eff is not trustworthy (MSD not diffusive)")
     phase = phase_label(phase_evidence(sc, note), min_confidence=min_confidence)
     perc = classify_percolation(sc["rho_d"], sc["rho_d_err"], min_confidence=min_confidence,
                                 threshold=percolation_threshold)
@@ -114,6 +119,52 @@ def agree(codes, confidences, decided, undetermined: int):
     hyst[(n_dec >= 2) & (hi != lo)] = HYSTERESIS_DISAGREE
     hyst[(n_dec == 0) & (present.sum(axis=-1) == 1)] = HYSTERESIS_ONE_SIDED
     return code, conf, hyst
+
+
+def common_reason(point, codes, reasons, decided, *, disagree: str, agree_: str):
+    """Reason code of a label common to several replicates or starts (last axis of
+    ``codes``), beside that common label ``point`` (:func:`agree`, or the replicates' rule).
+
+    Parameters
+    ----------
+    point : array of int
+        The common label.
+    codes, reasons : array of int
+        Label codes of the entries (-1: absent or unknown) and their stored reason codes
+        (:data:`fcsweep.analysis.reasons.REASONS`).
+    decided : sequence of int
+        The decided label codes.
+    disagree, agree_ : str
+        Reason names for decided entries that differ (``replicates_disagree``,
+        ``starts_disagree``) and for one decided label given for different reasons.
+
+    Returns
+    -------
+    ndarray of int8
+        A decided ``point``: the common reason of the entries that give it, else
+        ``agree_``. Otherwise ``disagree`` where two decided entries differ, else the reason
+        of the first entry that is not decided (a present one first), ``no_analysed_run``
+        where no entry was analysed.
+    """
+    pt, k, rc = np.asarray(point), np.asarray(codes), np.asarray(reasons)
+    nothing = (reason_value("not_analysed"), reason_value("no_analysed_run"))
+    out = np.full(pt.shape, reason_value("no_analysed_run"), dtype=np.int8)
+    for idx in np.ndindex(out.shape):
+        p, c, r = int(pt[idx]), k[idx], rc[idx]
+        dec = np.isin(c, list(decided))
+        if p in decided:
+            rs = np.unique(r[c == p])
+            out[idx] = rs[0] if rs.size == 1 else reason_value(agree_)
+        elif np.unique(c[dec]).size > 1:
+            out[idx] = reason_value(disagree)
+        else:
+            cand = [i for i in np.flatnonzero(~dec) if c[i] >= 0] or \
+                   [i for i in np.flatnonzero(~dec) if r[i] not in nothing]
+            if cand:
+                out[idx] = r[cand[0]]
+            elif p >= 0 and (~dec).any():
+                out[idx] = r[int(np.flatnonzero(~dec)[0])]
+    return out
 
 
 #: Decided codes of each label, and its undetermined code.

@@ -12,7 +12,9 @@ units of R0, times in the model's time unit; both are reduced, hence CF units "1
 
 Kinds: ``run`` a per-run number (an ``analysis.h5`` scalar and a dataset variable),
 ``label`` a per-run label (its flag code: a float in ``analysis.h5``, int8 in the dataset),
-``curve`` a per-run curve on the coordinate ``axis``, ``text`` a per-run string,
+``curve`` a per-run curve on the coordinate ``axis``, ``text`` a per-run string, ``code``
+a per-run reason code beside a label's reason text (:mod:`fcsweep.analysis.reasons`: an int8
+HDF5 enum in ``analysis.h5``, int8 with CF flags in the dataset),
 ``coord`` a coordinate of the curves (or ``replicate``), ``dataset`` what the aggregate
 computes itself (run status, per-point labels and fits).
 """
@@ -22,9 +24,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 __all__ = ["Observable", "OBSERVABLES", "RUN_SCALARS", "LABELS", "CURVES", "TEXTS", "REPLICATE_REDUCED",
-           "UNTIL_OBSERVABLES", "KINDS"]
+           "UNTIL_OBSERVABLES", "KINDS", "REASON_CODES"]
 
-KINDS = ("run", "label", "curve", "text", "coord", "dataset")
+KINDS = ("run", "label", "curve", "text", "coord", "dataset", "code")
 
 
 @dataclass(frozen=True)
@@ -166,15 +168,18 @@ OBSERVABLES: dict[str, Observable] = {o.name: o for o in (
                          "broken cages D_eff_cr_late decides, without them only a trustworthy D_eff_cr < 1e-3 "
                          "(solid); undetermined below the required confidence"),
     _O("phase_reason", "text", "why the phase label is what it is", units=""),
+    _O("phase_reason_code", "code", "reason code of the phase label (what decided it, or why nothing did)"),
     _O("percolated", "label", "defect percolation label: rho_d > percolation_threshold (default 1/2); undetermined "
                               "below the required confidence"),
     _O("kthny", "label", "KTHNY label from the decay of C_G1(r) and G6(r): solid (C_G1 algebraic, eta_G1 <= 1/3), "
                          "hexatic (C_G1 decaying faster, G6 algebraic with eta_6 <= 1/4), liquid (G6 decaying "
                          "faster)"),
     _O("kthny_reason", "text", "why the KTHNY label is what it is", units=""),
+    _O("kthny_reason_code", "code", "reason code of the KTHNY label (what decided it, or why nothing did)"),
     _O("kthny_point", "dataset", "KTHNY label common to the replicates (undetermined when they differ)"),
     _O("kthny_point_confidence", "dataset", "lowest replicate confidence of kthny_point"),
     _O("percolated_reason", "text", "why the percolation label is what it is", units=""),
+    _O("percolated_reason_code", "code", "reason code of the percolation label (what decided it, or why nothing did)"),
     _O("phase_point", "dataset", "phase label of the grid point: the phase rule on the replicate means (errors "
                                  "inflated by their scatter); with both starts, their common label"),
     _O("phase_point_confidence", "dataset", "probability of phase_point given the replicate-mean errors (both "
@@ -189,6 +194,13 @@ OBSERVABLES: dict[str, Observable] = {o.name: o for o in (
     _O("percolated_start_confidence", "dataset", "probability of percolated_start"),
     _O("kthny_start", "dataset", "KTHNY label common to the replicates of each start (dimension initial)"),
     _O("kthny_start_confidence", "dataset", "lowest replicate confidence of kthny_start"),
+    _O("phase_point_reason_code", "dataset", "reason code of phase_point"),
+    _O("percolated_point_reason_code", "dataset", "reason code of percolated_point"),
+    _O("kthny_point_reason_code", "dataset", "reason code of kthny_point (replicates_disagree where the replicates "
+                                             "differ)"),
+    _O("phase_start_reason_code", "dataset", "reason code of phase_start"),
+    _O("percolated_start_reason_code", "dataset", "reason code of percolated_start"),
+    _O("kthny_start_reason_code", "dataset", "reason code of kthny_start"),
     _O("phase_hysteresis", "dataset", "whether the starts' phase labels agree: agree, disagree, one_sided (one "
                                       "start decided or present), unknown"),
     _O("seed", "text", "random seed of the run (decimal string)", units=""),
@@ -233,6 +245,8 @@ RUN_SCALARS = _names("run")
 LABELS = _names("label")
 #: Per-run strings.
 TEXTS = _names("text")
+#: Per-run reason codes of the labels (``<label>_reason_code``).
+REASON_CODES = _names("code")
 #: Curves: name -> the name of their coordinate.
 CURVES = {name: o.axis for name, o in OBSERVABLES.items() if o.kind == "curve"}
 #: Observables reduced over replicates.

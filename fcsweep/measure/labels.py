@@ -48,10 +48,10 @@ def movie_labels(values: dict, *, threshold: float, min_confidence: float = MIN_
         phase = _fluid_from_q(values["q_mean_movie"], values["q_mean_movie_err"], p_broken, min_confidence)
     elif np.isfinite(p_broken):
         phase = Label(PHASE_UNDETERMINED, float("nan"), f"cages not broken (P = {p_broken:.2f}): solid needs "
-                                                        "D_eff, give --v0 and --Dr")
+                                                        "D_eff, give --v0 and --Dr", "cages_intact_no_d_eff")
     else:
         phase = Label(PHASE_UNKNOWN, float("nan"), "no cage test (3 frames and 4 tracked cells needed) and no "
-                                                   "D_eff (give --v0 and --Dr)")
+                                                   "D_eff (give --v0 and --Dr)", "not_available")
     return {"percolated": (perc.code, perc.confidence, perc.reason, flag_attrs(PERCOLATION_FLAGS)),
             "phase": (phase.code, phase.confidence, phase.reason, flag_attrs(PHASE_FLAGS))}
 
@@ -60,10 +60,10 @@ def _fluid_from_q(q, q_err, p_broken, min_confidence) -> Label:
     """Broken cages without D_eff: not solid; fluid or soft fluid from <q> with its error."""
     why = f"cages broken (P = {p_broken:.3f}), D_eff unknown (no --v0, --Dr)"
     if not (np.isfinite(q) and np.isfinite(q_err)):
-        return Label(PHASE_UNDETERMINED, float("nan"), f"{why}; <q> has no error")
+        return Label(PHASE_UNDETERMINED, float("nan"), f"{why}; <q> has no error", "no_error")
     p = _p_above(float(q), float(q_err), Q_STAR) * p_broken
     conf = max(p, p_broken - p)
     if conf < min_confidence:
-        return Label(PHASE_UNDETERMINED, conf, f"{why}; <q> too close to {Q_STAR}")
+        return Label(PHASE_UNDETERMINED, conf, f"{why}; <q> too close to {Q_STAR}", "near_q_star")
     code = PHASE_SOFT_FLUID if p >= p_broken - p else PHASE_FLUID
-    return Label(code, conf, f"{why}: P({PHASE_FLAGS[code]}) = {conf:.3f}")
+    return Label(code, conf, f"{why}: P({PHASE_FLAGS[code]}) = {conf:.3f}", "decided_q_no_d_eff")

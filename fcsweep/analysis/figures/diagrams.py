@@ -11,6 +11,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch, Rectangle
 import matplotlib.pyplot as plt
 import numpy as np
+import xarray as xr
 
 from fcsweep.analysis.diffusion import D_EFF_SOLID
 from fcsweep.analysis.figures.common import (CAPTION_SIZE, COLUMN, ETA_LABEL, OKABE_ITO, PHASE_COLORS, V0_LABEL,
@@ -18,6 +19,7 @@ from fcsweep.analysis.figures.common import (CAPTION_SIZE, COLUMN, ETA_LABEL, OK
                                              _eta_axis, _flag_words, _grid_ticks, _log_axis, _phase_words, _plane,
                                              _select, _styled, _tidy_log, _value_colorbar)
 from fcsweep.analysis.phase import KTHNY_FLAGS, RHO_D_PERCOLATION
+from fcsweep.analysis.reasons import reason_short, reason_value
 from fcsweep.model.shape import Q_STAR
 
 
@@ -83,31 +85,41 @@ def short_reason(text, words: int = 3) -> str:
 
 
 def _point_reasons(ds, keep, select, label="phase") -> np.ndarray:
-    """The reason (``<label>_reason``) of every point of the plane; over replicates, the
-    first replicate's whose label is not accepted (undetermined or unknown), or
-    "replicates disagree" where accepted labels differ."""
-    name = f"{label}_reason"
+    """The reason of every point of the plane in short words; over replicates and starts
+    (``initial``), the first run's whose label is not accepted (undetermined or unknown),
+    or "replicates disagree" / "starts disagree" where accepted labels differ (the
+    replicates of one start first). The words come from ``<label>_reason_code``
+    (:func:`fcsweep.analysis.reasons.reason_short`); only where a run has no code (a
+    dataset written before the codes, such as those under docs/repro/archive, or code
+    ``not_recorded``) from the reason text by :func:`short_reason`."""
+    name, cname = f"{label}_reason", f"{label}_reason_code"
     codes = ds[label]
     shape = tuple(ds.sizes[d] for d in keep)
-    if name not in ds:
+    if name not in ds and cname not in ds:
         return np.full(shape, "", dtype=object)
+    blank = xr.full_like(codes, "", dtype=object)
+    text_da = ds[name] if name in ds else blank
+    rc_da = ds[cname] if cname in ds else xr.zeros_like(codes)
     words = _flag_words(codes)
     bad = [c for c, w in words.items() if w in ("undetermined", "unknown")]
-    if "replicate" not in ds[name].dims or "replicate" in keep:
-        return _select(ds[name], keep, select).values.astype(object)
-    text = _select(ds[name], tuple(keep) + ("replicate",), select).values
-    code = _select(codes, tuple(keep) + ("replicate",), select).values
+    over = tuple(d for d in ("initial", "replicate") if d in codes.dims and d not in keep)
+    n_start = ds.sizes["initial"] if "initial" in over else 1
+
+    def plane(da):  # per point: (starts, replicates), length 1 where not reduced
+        da = da.load().broadcast_like(codes)
+        return _select(da, tuple(keep) + over, select).values.reshape(shape + (n_start, -1))
+
+    text, rc, code = plane(text_da), plane(rc_da), plane(codes)
     out = np.full(shape, "", dtype=object)
     for idx in np.ndindex(*shape):
-        c, t = code[idx], text[idx]
-        accepted = [int(v) for v in c if int(v) not in bad]
-        not_ok = [k for k, v in enumerate(c) if int(v) in bad]
-        if not_ok:
-            out[idx] = t[not_ok[0]]
-        elif len(set(accepted)) > 1:
-            out[idx] = "replicates disagree"
+        c = code[idx].astype(int)
+        ok = ~np.isin(c, bad)
+        if not ok.all() or len(set(c[ok].tolist())) <= 1:
+            k = np.unravel_index(int(np.argmin(ok)), c.shape)
+            out[idx] = reason_short(rc[idx][k]) or short_reason(text[idx][k])
         else:
-            out[idx] = t[0]
+            split = any(len(set(row[m].tolist())) > 1 for row, m in zip(c, ok))
+            out[idx] = reason_short(reason_value("replicates_disagree" if split else "starts_disagree"))
     return out
 
 
@@ -193,7 +205,7 @@ def phase_diagram(ds, *, select=None, reasons: bool = True, ax=None):
         why = _point_reasons(ds, ("v0", "eta"), select)
         size, chars = _cell_fontsize(ax, len(eta))
         for i, j in undetermined:
-            text = short_reason(why[i, j])
+            text = why[i, j]
             if text:
                 ax.text(np.sqrt(ex[j] * ex[j + 1]) if log_x else 0.5 * (ex[j] + ex[j + 1]),
                         np.sqrt(ey[i] * ey[i + 1]) if log_y else 0.5 * (ey[i] + ey[i + 1]),
