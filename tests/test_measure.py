@@ -503,3 +503,38 @@ def test_missing_extra_is_named(tmp_path, monkeypatch):
     monkeypatch.setattr(builtins, "__import__", no_tifffile)
     r = CliRunner().invoke(cli, ["measure", str(tmp_path / "x.tif"), "-o", str(tmp_path / "o")])
     assert r.exit_code == 2 and "fcsweep[measure]" in r.output
+
+
+def _traced_peak(fn):
+    import tracemalloc
+
+    tracemalloc.start()
+    try:
+        out = fn()
+        return tracemalloc.get_traced_memory()[1], out
+    finally:
+        tracemalloc.stop()
+
+
+def test_memory_does_not_grow_with_the_frames(tmp_path, monkeypatch):
+    """measure.nc is written from a spool on disk, a few frames at a time: measuring 5x as many
+    frames of the same movie raises the peak of the traced (Python and numpy) memory by less
+    than a quarter of the time x cell output those frames add (holding that output would
+    cost all of it).  What does grow is what the movie analysis needs: the centroids x, y
+    of all tracks (16 of the output's 196 bytes per cell and frame) and the analysis's copies
+    of the tracked ones."""
+    from measure_render import drifting_frames, voronoi_base
+
+    from fcsweep.measure import measure_to_file, store
+
+    monkeypatch.setattr(store, "BLOCK_BYTES", 4096)  # write blocks of a few frames, as on large movies
+    monkeypatch.setattr(store, "READ_CELLS", 256)
+
+    base = voronoi_base(64, 4.0, margin=40)
+    measure_to_file(drifting_frames(base, 64, 2), tmp_path / "warm")  # lazy imports, caches
+    peaks, sizes = {}, {}
+    for T in (4, 20):
+        peaks[T], path = _traced_peak(lambda: measure_to_file(drifting_frames(base, 64, T), tmp_path / str(T)))
+        with xr.open_dataset(path) as ds:
+            sizes[T] = sum(v.nbytes for v in ds.data_vars.values() if "cell" in v.dims)
+    assert peaks[20] - peaks[4] < 0.25 * (sizes[20] - sizes[4]), (peaks, sizes)

@@ -268,8 +268,8 @@ class _Run:
         even = T < 2 or np.allclose(dt, dt[0], rtol=1e-6)
         # the MSD's window average needs equally spaced frames; a cut cell's centroid moves with the cut
         cut = self.spool.dense("edge_cut", ncell, np.nan, np.float64) == 1
-        xs = np.where(cut, np.nan, self.spool.dense("x", ncell, np.nan, np.float64))
-        ys = np.where(cut, np.nan, self.spool.dense("y", ncell, np.nan, np.float64))
+        xs, ys = (self.spool.dense(v, ncell, np.nan, np.float64) for v in ("x", "y"))
+        xs[cut], ys[cut] = np.nan, np.nan
         del cut
         msd, n_tracked = tracked_msd(xs, ys) if track else (np.full(T, np.nan), 0)
         if not even:

@@ -15,11 +15,13 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["CellSpool", "append_cell_variables", "BLOCK_BYTES"]
+__all__ = ["CellSpool", "append_cell_variables", "BLOCK_BYTES", "READ_CELLS"]
 
 #: Bytes of one assembled block of a ``time`` x ``cell`` (x ``mode``) variable while it is
 #: written: frames are taken in blocks that stay below this.
 BLOCK_BYTES = 16 << 20
+#: Values read from the spool at once while a block is assembled.
+READ_CELLS = 1 << 16
 
 
 class CellSpool:
@@ -96,12 +98,18 @@ class CellSpool:
         k0, k1, _ = frames.indices(self.frames)
         stored, tail = self.fields[name]
         offsets = np.concatenate([[0], np.cumsum(self.counts, dtype=np.int64)])
-        start, count = int(offsets[k0]), int(offsets[max(k1, k0)] - offsets[k0])
         out = np.full((max(k1 - k0, 0), ncell) + tail, fill, dtype=dtype)
-        if count:
-            rows = np.repeat(np.arange(k1 - k0), self.counts[k0:k1])
-            idx = self._read("_index", start, count, np.dtype(np.int64), ())
-            out[rows, idx] = self._read(name, start, count, stored, tail)
+        per = max(1, int(np.prod(tail, dtype=np.int64)))
+        a = k0
+        while a < k1:  # the records read at once stay under READ_CELLS values
+            b = max(a + 1, int(np.searchsorted(offsets, offsets[a] + READ_CELLS // per, side="right")) - 1)
+            b = min(b, k1)
+            start, count = int(offsets[a]), int(offsets[b] - offsets[a])
+            if count:
+                rows = np.repeat(np.arange(a - k0, b - k0), self.counts[a:b])
+                idx = self._read("_index", start, count, np.dtype(np.int64), ())
+                out[rows, idx] = self._read(name, start, count, stored, tail)
+            a = b
         return out
 
     def blocks(self, ncell: int, tail=()):
