@@ -473,19 +473,23 @@ def _broken(tmp_path, monkeypatch):
     Image.fromarray(good[:15]).save(tmp_path / "shapes" / "b.png")
     np.save(tmp_path / "frac_seg.npy", {"masks": good * 1.5}, allow_pickle=True)
     tifffile.imwrite(tmp_path / "big.tif", good)
+    np.save(tmp_path / "big_stack.npy", np.stack([good, good]))
+    (tmp_path / "big_png").mkdir()
+    Image.fromarray(good).save(tmp_path / "big_png" / "a.png")
     return {"float.tif": "float32", "empty.tif": "empty mask", "negative.tif": "negative label",
-            "shapes": "differs from the first", "frac_seg.npy": "integers", "big.tif": "GiB"}
+            "shapes": "differs from the first", "frac_seg.npy": "integers", "big.tif": "GiB",
+            "big_stack.npy": "GiB", "big_png": "GiB"}
 
 
 def test_broken_input_exits_2_with_one_line(tmp_path, monkeypatch):
     cases = _broken(tmp_path, monkeypatch)
     for name, words in cases.items():
-        if name == "big.tif":
+        if name.startswith("big"):  # a frame larger than the memory available
             monkeypatch.setattr(measure_readers, "available_memory", lambda: 1000)
         r = CliRunner().invoke(cli, ["measure", str(tmp_path / name), "-o", str(tmp_path / "o")])
         assert r.exit_code == 2, (name, r.output)
         assert words in r.output and "Traceback" not in r.output, (name, r.output)
-    assert not (tmp_path / "o" / "measure.nc").exists()
+    assert not (tmp_path / "o").exists()  # no measure.nc, no scratch left, no empty directory made
 
 
 def test_missing_extra_is_named(tmp_path, monkeypatch):

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["MeasureInputError", "iter_frames", "read_seg_npy", "check_frame", "available_memory",
+__all__ = ["MeasureInputError", "iter_frames", "read_seg_npy", "check_frame", "available_memory", "tiff_metadata",
            "FRAME_MEMORY_FACTOR", "IMAGE_SUFFIXES"]
 
 #: Bytes of work memory per pixel the measurement of one frame needs, as a multiple of the
@@ -206,6 +206,20 @@ def _frames_of_tiff(path: Path):
             stack = series.asarray()
             for k in range(shape[0]):
                 yield f"{path} frame {k}", stack[k]
+
+
+def tiff_metadata(path) -> dict:
+    """The calibration metadata of a TIFF, unparsed: ``ome`` (the OME-XML string or None),
+    ``imagej`` (the ImageJ metadata dict or None) and ``resolution`` (the first page's
+    ``XResolution``, ``YResolution`` rationals, or None)."""
+    tifffile = _need("tifffile")
+    with tifffile.TiffFile(path) as tif:
+        tags = tif.pages[0].tags
+        res = None
+        if "XResolution" in tags:
+            res = (tags["XResolution"].value, tags.get("YResolution", tags["XResolution"]).value)
+        return {"ome": tif.ome_metadata if tif.is_ome else None,
+                "imagej": (tif.imagej_metadata or {}) if tif.is_imagej else None, "resolution": res}
 
 
 def _frames_of_png(path: Path):
