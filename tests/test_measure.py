@@ -412,6 +412,23 @@ def test_builtin_example(tmp_path):
         assert int(ds.phase_movie) == 3 and "8 / Dr" in str(ds.phase_movie_reason.values)
 
 
+def test_streamed_file_is_the_python_api_dataset(tmp_path, monkeypatch):
+    """The command streams measure.nc from the spool a few frames at a time; the file holds
+    exactly the dataset that ``fcsweep.measure`` returns (values, dtypes, attributes)."""
+    from fcsweep.measure import measure_to_file, store, write_measure
+    from fcsweep.measure.command import EXAMPLE
+
+    monkeypatch.setattr(store, "BLOCK_BYTES", 2048)  # several blocks per variable
+    monkeypatch.setattr(store, "READ_CELLS", 100)
+    ds = measure(EXAMPLE, 0.1, v0=0.06, Dr=0.01, track=True)
+    streamed = xr.load_dataset(measure_to_file(EXAMPLE, tmp_path / "s", 0.1, v0=0.06, Dr=0.01))
+    whole = xr.load_dataset(write_measure(ds, tmp_path / "w"))
+    for d in (ds, streamed, whole):
+        d.attrs.pop("history")
+    assert streamed.identical(whole) and streamed.identical(ds)
+    assert [p.name for p in (tmp_path / "s").iterdir()] == ["measure.nc"]  # the spool is removed
+
+
 def test_measured_movies_drawn_beside_simulated_points(tmp_path, monkeypatch):
     """The <q> - rho_d figure: one error-bar marker per measured movie at its frame
     averages, the simulated points with theirs."""
