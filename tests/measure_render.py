@@ -122,8 +122,9 @@ def voronoi_base(size, r0_px, seed=0, margin=0):
 
 def drifting_frames(base, size, frames, step=1):
     """``frames`` windows of ``size`` x ``size`` pixels of ``base``, each ``step`` pixels further
-    along the diagonal (wrapping back within the margin), as views: cells drift rigidly."""
+    along the diagonal and back at the end of the margin, as views: cells drift rigidly to and
+    fro, and those near the edges leave and enter."""
     span = base.shape[0] - size
     for k in range(frames):
-        d = (k * step) % (span + 1) if span else 0
+        d = span - abs((k * step) % (2 * span) - span) if span else 0
         yield base[d:d + size, d:d + size]
