@@ -555,7 +555,7 @@ def test_memory_does_not_grow_with_the_frames(tmp_path, monkeypatch):
     measure_to_file(drifting_frames(base, 64, 2), tmp_path / "warm")  # lazy imports, caches
     peaks, sizes = {}, {}
     for T in (4, 20):
-        peaks[T], path = _traced_peak(lambda: measure_to_file(drifting_frames(base, 64, T), tmp_path / str(T)))
+        peaks[T], path = _traced_peak(lambda T=T: measure_to_file(drifting_frames(base, 64, T), tmp_path / str(T)))
         with xr.open_dataset(path) as ds:
             sizes[T] = sum(v.nbytes for v in ds.data_vars.values() if "cell" in v.dims)
     assert peaks[20] - peaks[4] < 0.25 * (sizes[20] - sizes[4]), (peaks, sizes)

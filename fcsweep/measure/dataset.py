@@ -6,6 +6,10 @@ across frames by the overlap of its masks keeps its index, NaN / fill where it i
 :mod:`fcsweep.measure.tracking`; with ``track=False`` the cells of each frame in the order of
 their labels), ``mode`` (n = 2..M) and ``lag`` (of the MSD).  Every variable carries its
 CF ``units`` and ``long_name`` (:data:`VARIABLES`).
+
+The frames are measured one at a time and their per-cell results spooled to disk
+(:mod:`fcsweep.measure.store`): ``measure_to_file`` (the command) writes the same dataset as
+``write_measure(measure(...))`` without holding its ``time`` x ``cell`` variables in memory.
 """
 
 from __future__ import annotations
@@ -274,7 +278,8 @@ class _Run:
         msd, n_tracked = tracked_msd(xs, ys) if track else (np.full(T, np.nan), 0)
         if not even:
             msd = np.full(T, np.nan)
-        diff = tracked_diffusion(t, xs, ys, v0=v0, Dr=Dr) if (track and even) else tracked_diffusion(t[:1], xs[:1], ys[:1])
+        diff = tracked_diffusion(t, xs, ys, v0=v0, Dr=Dr) if (track and even) \
+            else tracked_diffusion(t[:1], xs[:1], ys[:1])
         bounds = (0.0, shape[1] * px, 0.0, shape[0] * py)
         n_eff = float(np.mean(data["n_cells"].values - data["n_edge_cut"].values / 2))  # a cut cell counts half
         cb, cage = tracked_cages(t, xs, ys, bounds, n_eff, v0=v0, Dr=Dr) \
@@ -282,7 +287,8 @@ class _Run:
         del xs, ys
         diff.update(cage)
         lags_cr = cb.lags if cb is not None else np.zeros(0)
-        diff.update(cage_msd=cb.cr_msd if cb is not None else np.zeros(0), F_s=cb.F_s if cb is not None else np.zeros(0))
+        diff.update(cage_msd=cb.cr_msd if cb is not None else np.zeros(0),
+                    F_s=cb.F_s if cb is not None else np.zeros(0))
         for name in AVERAGED:
             series = data[name].values
             avg = time_average(series, equilibrate=False) if np.all(np.isfinite(series)) else None
@@ -295,7 +301,8 @@ class _Run:
             data[f"{name}_movie"] = xr.Variable((), np.int8(code), {"long_name": LABELS[name], **flags})
             data[f"{name}_movie_confidence"] = xr.Variable((), float(conf), {
                 "units": "1", "long_name": f"probability of the most probable {name} label"})
-            data[f"{name}_movie_reason"] = xr.Variable((), str(reason), {"long_name": f"why {name}_movie is what it is"})
+            data[f"{name}_movie_reason"] = xr.Variable((), str(reason),
+                                                       {"long_name": f"why {name}_movie is what it is"})
         ds = xr.Dataset(data, coords={
             "time": ("time", t, {"units": time_unit, "long_name": "time of the frame"}),
             "mode": ("mode", np.arange(2, modes + 1, dtype=np.int32),
