@@ -95,3 +95,36 @@ def render_overlapping(pos, theta, a, b, box, res, fov):
             blk[win] = depth[win]
             frame[row0:row1, col0:col1][win] = k + 1
     return frame
+
+
+def voronoi_base(size, r0_px, seed=0, margin=0):
+    """A confluent label image: the Voronoi cells of a jittered triangular lattice whose cells
+    have the area of a disc of radius ``r0_px`` pixels, ``size + margin`` pixels square
+    (uint32, labels 1..n).  A movie of rigidly drifting cells is a sequence of
+    ``size`` x ``size`` windows of it (:func:`drifting_frames`)."""
+    from scipy.spatial import cKDTree
+
+    rng = np.random.default_rng(seed)
+    n = size + margin
+    s = r0_px * np.sqrt(2 * np.pi / np.sqrt(3))  # lattice spacing of cells of area pi r0^2
+    cols, rows = int(n / s) + 2, int(n / (s * np.sqrt(3) / 2)) + 2
+    xs, ys = np.meshgrid(np.arange(cols), np.arange(rows))
+    pts = np.stack([(xs + 0.5 * (ys % 2)).ravel() * s, ys.ravel() * s * np.sqrt(3) / 2], 1) - s / 2
+    pts += rng.uniform(-0.15 * s, 0.15 * s, pts.shape)
+    tree = cKDTree(pts)
+    out = np.empty((n, n), dtype=np.uint32)
+    centres = np.arange(n) + 0.5
+    for r0 in range(0, n, 256):  # rows in blocks: bounded work memory
+        yy, xx = np.meshgrid(centres[r0:r0 + 256], centres, indexing="ij")
+        out[r0:r0 + 256] = tree.query(np.stack([xx.ravel(), yy.ravel()], 1))[1].reshape(yy.shape) + 1
+    return out
+
+
+def drifting_frames(base, size, frames, step=1):
+    """``frames`` windows of ``size`` x ``size`` pixels of ``base``, each ``step`` pixels further
+    along the diagonal and back at the end of the margin, as views: cells drift rigidly to and
+    fro, and those near the edges leave and enter."""
+    span = base.shape[0] - size
+    for k in range(frames):
+        d = span - abs((k * step) % (2 * span) - span) if span else 0
+        yield base[d:d + size, d:d + size]

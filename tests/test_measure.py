@@ -412,6 +412,23 @@ def test_builtin_example(tmp_path):
         assert int(ds.phase_movie) == 3 and "8 / Dr" in str(ds.phase_movie_reason.values)
 
 
+def test_streamed_file_is_the_python_api_dataset(tmp_path, monkeypatch):
+    """The command streams measure.nc from the spool a few frames at a time; the file holds
+    exactly the dataset that ``fcsweep.measure`` returns (values, dtypes, attributes)."""
+    from fcsweep.measure import measure_to_file, store, write_measure
+    from fcsweep.measure.command import EXAMPLE
+
+    monkeypatch.setattr(store, "BLOCK_BYTES", 2048)  # several blocks per variable
+    monkeypatch.setattr(store, "READ_CELLS", 100)
+    ds = measure(EXAMPLE, 0.1, v0=0.06, Dr=0.01, track=True)
+    streamed = xr.load_dataset(measure_to_file(EXAMPLE, tmp_path / "s", 0.1, v0=0.06, Dr=0.01))
+    whole = xr.load_dataset(write_measure(ds, tmp_path / "w"))
+    for d in (ds, streamed, whole):
+        d.attrs.pop("history")
+    assert streamed.identical(whole) and streamed.identical(ds)
+    assert [p.name for p in (tmp_path / "s").iterdir()] == ["measure.nc"]  # the spool is removed
+
+
 def test_measured_movies_drawn_beside_simulated_points(tmp_path, monkeypatch):
     """The <q> - rho_d figure: one error-bar marker per measured movie at its frame
     averages, the simulated points with theirs."""
@@ -473,19 +490,23 @@ def _broken(tmp_path, monkeypatch):
     Image.fromarray(good[:15]).save(tmp_path / "shapes" / "b.png")
     np.save(tmp_path / "frac_seg.npy", {"masks": good * 1.5}, allow_pickle=True)
     tifffile.imwrite(tmp_path / "big.tif", good)
+    np.save(tmp_path / "big_stack.npy", np.stack([good, good]))
+    (tmp_path / "big_png").mkdir()
+    Image.fromarray(good).save(tmp_path / "big_png" / "a.png")
     return {"float.tif": "float32", "empty.tif": "empty mask", "negative.tif": "negative label",
-            "shapes": "differs from the first", "frac_seg.npy": "integers", "big.tif": "GiB"}
+            "shapes": "differs from the first", "frac_seg.npy": "integers", "big.tif": "GiB",
+            "big_stack.npy": "GiB", "big_png": "GiB"}
 
 
 def test_broken_input_exits_2_with_one_line(tmp_path, monkeypatch):
     cases = _broken(tmp_path, monkeypatch)
     for name, words in cases.items():
-        if name == "big.tif":
+        if name.startswith("big"):  # a frame larger than the memory available
             monkeypatch.setattr(measure_readers, "available_memory", lambda: 1000)
         r = CliRunner().invoke(cli, ["measure", str(tmp_path / name), "-o", str(tmp_path / "o")])
         assert r.exit_code == 2, (name, r.output)
         assert words in r.output and "Traceback" not in r.output, (name, r.output)
-    assert not (tmp_path / "o" / "measure.nc").exists()
+    assert not (tmp_path / "o").exists()  # no measure.nc, no scratch left, no empty directory made
 
 
 def test_missing_extra_is_named(tmp_path, monkeypatch):
@@ -503,3 +524,38 @@ def test_missing_extra_is_named(tmp_path, monkeypatch):
     monkeypatch.setattr(builtins, "__import__", no_tifffile)
     r = CliRunner().invoke(cli, ["measure", str(tmp_path / "x.tif"), "-o", str(tmp_path / "o")])
     assert r.exit_code == 2 and "fcsweep[measure]" in r.output
+
+
+def _traced_peak(fn):
+    import tracemalloc
+
+    tracemalloc.start()
+    try:
+        out = fn()
+        return tracemalloc.get_traced_memory()[1], out
+    finally:
+        tracemalloc.stop()
+
+
+def test_memory_does_not_grow_with_the_frames(tmp_path, monkeypatch):
+    """measure.nc is written from a spool on disk, a few frames at a time: measuring 5x as many
+    frames of the same movie raises the peak of the traced (Python and numpy) memory by less
+    than a quarter of the time x cell output those frames add (holding that output would
+    cost all of it).  What does grow is what the movie analysis needs: the centroids x, y
+    of all tracks (16 of the output's 196 bytes per cell and frame) and the analysis's copies
+    of the tracked ones."""
+    from measure_render import drifting_frames, voronoi_base
+
+    from fcsweep.measure import measure_to_file, store
+
+    monkeypatch.setattr(store, "BLOCK_BYTES", 4096)  # write blocks of a few frames, as on large movies
+    monkeypatch.setattr(store, "READ_CELLS", 256)
+
+    base = voronoi_base(64, 4.0, margin=40)
+    measure_to_file(drifting_frames(base, 64, 2), tmp_path / "warm")  # lazy imports, caches
+    peaks, sizes = {}, {}
+    for T in (4, 20):
+        peaks[T], path = _traced_peak(lambda T=T: measure_to_file(drifting_frames(base, 64, T), tmp_path / str(T)))
+        with xr.open_dataset(path) as ds:
+            sizes[T] = sum(v.nbytes for v in ds.data_vars.values() if "cell" in v.dims)
+    assert peaks[20] - peaks[4] < 0.25 * (sizes[20] - sizes[4]), (peaks, sizes)

@@ -11,10 +11,11 @@ is :func:`fcsweep.measure.dataset.measure`.
 import sys
 import types
 
-from fcsweep.measure.dataset import OUTPUT_NAME, VARIABLES, measure, write_measure
+from fcsweep.measure.dataset import OUTPUT_NAME, VARIABLES, measure, measure_to_file, write_measure
 from fcsweep.measure.readers import MeasureInputError, iter_frames, read_seg_npy
 
-__all__ = ["measure", "write_measure", "iter_frames", "read_seg_npy", "MeasureInputError", "VARIABLES",
+__all__ = ["measure", "measure_to_file", "write_measure", "iter_frames", "read_seg_npy", "MeasureInputError",
+           "VARIABLES",
            "OUTPUT_NAME"]
 
 

@@ -14,7 +14,7 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
 
-from fcsweep.measure.readers import MeasureInputError, _need
+from fcsweep.measure.readers import MeasureInputError, tiff_metadata
 
 __all__ = ["Calibration", "tiff_calibration", "resolve", "UNIT_ALIASES", "RTOL"]
 
@@ -60,13 +60,11 @@ def _ome(xml: str) -> Calibration:
     return cal
 
 
-def _imagej(tif) -> Calibration:
-    meta = tif.imagej_metadata or {}
+def _imagej(meta: dict, resolution) -> Calibration:
     cal = Calibration()
     unit = meta.get("unit")
-    tags = tif.pages[0].tags
-    if unit and unit not in ("pixel", "pixels") and "XResolution" in tags:
-        (nx, dx), (ny, dy) = tags["XResolution"].value, tags.get("YResolution", tags["XResolution"]).value
+    if unit and unit not in ("pixel", "pixels") and resolution is not None:
+        (nx, dx), (ny, dy) = resolution
         if nx and ny:
             cal.pixel_size = (dx / nx, dy / ny)
             cal.length_unit = _unit(unit)
@@ -78,15 +76,14 @@ def _imagej(tif) -> Calibration:
 
 def tiff_calibration(path) -> Calibration:
     """The calibration in a TIFF's OME-XML or ImageJ metadata (empty if it has none)."""
-    tifffile = _need("tifffile")
-    with tifffile.TiffFile(path) as tif:
-        if tif.is_ome and tif.ome_metadata:
-            try:
-                return _ome(tif.ome_metadata)
-            except (ET.ParseError, ValueError) as exc:
-                raise MeasureInputError(f"{path}: unreadable OME metadata ({exc})") from None
-        if tif.is_imagej:
-            return _imagej(tif)
+    meta = tiff_metadata(path)
+    if meta["ome"]:
+        try:
+            return _ome(meta["ome"])
+        except (ET.ParseError, ValueError) as exc:
+            raise MeasureInputError(f"{path}: unreadable OME metadata ({exc})") from None
+    if meta["imagej"] is not None:
+        return _imagej(meta["imagej"], meta["resolution"])
     return Calibration()
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from fcsweep.measure.dataset import measure, write_measure
+from fcsweep.measure.dataset import measure_to_file
 from fcsweep.measure.readers import MeasureInputError
 
 __all__ = ["parse_pixel_size", "parse_times", "measure_to_dir", "EXAMPLE", "EXAMPLE_PIXEL_SIZE"]
@@ -44,7 +44,8 @@ def measure_to_dir(images, out, *, pixel_size: str | None = None, frame_interval
                    modes: int = 6,
                    percolation_threshold: float = 0.5, v0: float | None = None, Dr: float | None = None,
                    neighbours: str = "voronoi") -> Path:
-    """Measure ``images`` (paths) and write ``out/measure.nc``; None options come from the
+    """Measure ``images`` (paths) and write ``out/measure.nc``, streaming
+    (:func:`fcsweep.measure.dataset.measure_to_file`); None options come from the
     TIFF's metadata or default to 1 (:func:`fcsweep.measure.calibration.resolve`).
     Without images, the built-in :data:`EXAMPLE` (lengths in R0, times in model units).
 
@@ -60,8 +61,7 @@ def measure_to_dir(images, out, *, pixel_size: str | None = None, frame_interval
     if not images:
         images = [EXAMPLE]
         pixel_size = pixel_size or EXAMPLE_PIXEL_SIZE
-    ds = measure(list(images), parse_pixel_size(pixel_size), frame_interval, modes=modes,
-                 length_unit=length_unit, time_unit=time_unit, times=parse_times(times),
-                 percolation_threshold=percolation_threshold, v0=v0, Dr=Dr, neighbours=neighbours)
-    ds.attrs["source"] = " ".join(str(p) for p in images)
-    return write_measure(ds, out)
+    return measure_to_file(list(images), out, parse_pixel_size(pixel_size), frame_interval, modes=modes,
+                           length_unit=length_unit, time_unit=time_unit, times=parse_times(times),
+                           percolation_threshold=percolation_threshold, v0=v0, Dr=Dr, neighbours=neighbours,
+                           attrs={"source": " ".join(str(p) for p in images)})

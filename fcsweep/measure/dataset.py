@@ -6,6 +6,10 @@ across frames by the overlap of its masks keeps its index, NaN / fill where it i
 :mod:`fcsweep.measure.tracking`; with ``track=False`` the cells of each frame in the order of
 their labels), ``mode`` (n = 2..M) and ``lag`` (of the MSD).  Every variable carries its
 CF ``units`` and ``long_name`` (:data:`VARIABLES`).
+
+The frames are measured one at a time and their per-cell results spooled to disk
+(:mod:`fcsweep.measure.store`): ``measure_to_file`` (the command) writes the same dataset as
+``write_measure(measure(...))`` without holding its ``time`` x ``cell`` variables in memory.
 """
 
 from __future__ import annotations
@@ -23,12 +27,13 @@ from fcsweep.measure.calibration import resolve
 from fcsweep.measure.cells import measure_cells
 from fcsweep.measure.frames import PERCOLATION_THRESHOLD, frame_statistics
 from fcsweep.measure.readers import MeasureInputError, iter_frames
+from fcsweep.measure.store import CellSpool, append_cell_variables
 from fcsweep.measure.contacts import contact_graph
 from fcsweep.measure.labels import movie_labels
 from fcsweep.measure.tracking import bond_changes, link_frames, tracked_cages, tracked_diffusion, tracked_msd
 from fcsweep.model.shape import Q_STAR
 
-__all__ = ["measure", "write_measure", "VARIABLES", "OUTPUT_NAME"]
+__all__ = ["measure", "measure_to_file", "write_measure", "VARIABLES", "OUTPUT_NAME"]
 
 #: File written by ``fcsweep measure`` in its output directory.
 OUTPUT_NAME = "measure.nc"
@@ -122,7 +127,7 @@ def _pixel_pair(pixel_size) -> tuple[float, float]:
 def measure(labels, pixel_size=None, frame_interval=None, *, modes: int = 6, length_unit: str | None = None,
             time_unit: str | None = None, times=None, percolation_threshold: float = PERCOLATION_THRESHOLD,
             track: bool = True, v0: float | None = None, Dr: float | None = None,
-            neighbours: str = "voronoi") -> xr.Dataset:
+            neighbours: str = "voronoi", scratch=None) -> xr.Dataset:
     """Measure a segmented image or movie of a cell monolayer.
 
     Parameters
@@ -157,6 +162,9 @@ def measure(labels, pixel_size=None, frame_interval=None, *, modes: int = 6, len
     v0, Dr : float, optional
         Self-propulsion speed (length / time) and rotational diffusion (1 / time) of the
         cells, if known: ``Dr`` selects the active-Brownian fit of D_s, both give ``D_eff``.
+    scratch : path-like, optional
+        Directory for the temporary spool of the per-cell results (default: the system's
+        temporary directory); about 0.2 kB per cell and frame, removed on return.
 
     Returns
     -------
@@ -168,113 +176,220 @@ def measure(labels, pixel_size=None, frame_interval=None, *, modes: int = 6, len
     MeasureInputError
         Input that is not a usable label image (the message says which frame and why).
     """
-    if int(modes) < 2:
-        raise MeasureInputError(f"modes must be >= 2, got {modes}")
-    if neighbours not in ("voronoi", "contact"):
-        raise MeasureInputError(f"neighbours must be 'voronoi' or 'contact', got {neighbours!r}")
-    if frame_interval is not None and not (np.isfinite(frame_interval) and frame_interval > 0):
-        raise MeasureInputError(f"frame interval must be positive, got {frame_interval!r}")
-    cal = resolve(labels, None if pixel_size is None else _pixel_pair(pixel_size), frame_interval, length_unit,
-                  time_unit)
-    px, py = cal.pixel_size
-    frame_interval, length_unit, time_unit = cal.frame_interval, cal.length_unit, cal.time_unit
-    per_cell, per_frame, shape = [], [], None
-    prev, prev_tracks, next_id = None, {}, 0
-    prev_bonds = prev_index = None
-    for _, frame in iter_frames(labels):
-        shape = frame.shape
-        cells = measure_cells(frame, (px, py), int(modes))
-        if track:
-            cells["index"], next_id = link_frames(prev, prev_tracks, frame, cells["label"], next_id)
-            prev, prev_tracks = frame, dict(zip(cells["label"].tolist(), cells["index"].tolist()))
-        else:
-            cells["index"] = np.arange(len(cells["label"]))
-            next_id = max(next_id, len(cells["label"]))
-        graph = contact_graph(frame, cells["label"]) if neighbours == "contact" else None
-        stats = frame_statistics(cells, (0.0, shape[1] * px, 0.0, shape[0] * py), percolation_threshold, graph)
-        cells.update(n_sides=stats.pop("n_sides"), defect=stats.pop("defect"))
-        bonds = stats.pop("bonds")
-        stats["bond_change_fraction"] = bond_changes(prev_bonds, prev_index, bonds, cells["index"]) \
-            if (track and prev_bonds is not None) else np.nan
-        prev_bonds, prev_index = bonds, cells["index"]
-        per_cell.append(cells)
-        per_frame.append(stats)
-    T = len(per_cell)
-    if times is None:
-        t = np.arange(T) * float(frame_interval)
-    else:
-        t = np.asarray(times, dtype=float)
-        if t.shape != (T,) or not np.all(np.diff(t) > 0):
-            raise MeasureInputError(f"times must be {T} increasing time stamps, got shape {t.shape}")
-    ncell = next_id
-    units = {"L": length_unit, "L2": f"{length_unit}2" if length_unit != "1" else "1", "T": time_unit, "1": "1"}
-    units["L2/T"] = " ".join([u for u in (units["L2"], f"{time_unit}-1") if u not in ("1", "1-1")]) or "1"
-    data = {}
-    for name, (dims, unit, long_name) in VARIABLES.items():
-        if name in _MOVIE:
-            continue
-        if dims == _T:
-            arr = np.array([f[name] for f in per_frame], dtype=float)
-        else:
-            fill = _CELL_INT.get(name, np.nan)
-            tail = (int(modes) - 1,) if dims == _M else ()
-            arr = np.full((T, ncell) + tail, fill, dtype=np.int32 if name in _CELL_INT else float)
-            for k, c in enumerate(per_cell):
-                arr[k, c["index"]] = c[name]
-        data[name] = xr.Variable(dims, arr, {"units": units[unit], "long_name": long_name})
-    dt = np.diff(t)
-    even = T < 2 or np.allclose(dt, dt[0], rtol=1e-6)
-    # the MSD's window average needs equally spaced frames
-    cut = data["edge_cut"].values == 1  # a cut cell's centroid moves with the cut
-    msd, n_tracked = tracked_msd(np.where(cut, np.nan, data["x"].values), np.where(cut, np.nan, data["y"].values)) \
-        if track else (np.full(T, np.nan), 0)
-    if not even:
-        msd = np.full(T, np.nan)
-    xs, ys = np.where(cut, np.nan, data["x"].values), np.where(cut, np.nan, data["y"].values)
-    diff = tracked_diffusion(t, xs, ys, v0=v0, Dr=Dr) if (track and even) else tracked_diffusion(t[:1], xs[:1], ys[:1])
-    bounds = (0.0, shape[1] * px, 0.0, shape[0] * py)
-    n_eff = float(np.mean(data["n_cells"].values - data["n_edge_cut"].values / 2))  # a cut cell counts half
-    cb, cage = tracked_cages(t, xs, ys, bounds, n_eff, v0=v0, Dr=Dr) \
-        if (track and even) else (None, tracked_cages(t[:1], xs[:1], ys[:1], bounds, 1.0)[1])
-    diff.update(cage)
-    lags_cr = cb.lags if cb is not None else np.zeros(0)
-    diff.update(cage_msd=cb.cr_msd if cb is not None else np.zeros(0), F_s=cb.F_s if cb is not None else np.zeros(0))
-    for name in AVERAGED:
-        series = data[name].values
-        avg = time_average(series, equilibrate=False) if np.all(np.isfinite(series)) else None
-        diff[f"{name}_movie"] = avg.mean if avg else np.nan
-        diff[f"{name}_movie_err"] = avg.err if avg else np.nan
-    for name, value in (("msd", msd), ("n_tracked", np.int32(n_tracked)), *diff.items()):
+    with _Run(labels, pixel_size, frame_interval, modes=modes, length_unit=length_unit, time_unit=time_unit,
+              times=times, percolation_threshold=percolation_threshold, track=track, v0=v0, Dr=Dr,
+              neighbours=neighbours, scratch=scratch) as run:
+        ds = run.small.assign({name: run.cell_variable(name) for name in run.cell_names})
+    return ds[[n for n in VARIABLES if n in ds] + [n for n in ds.data_vars if n not in VARIABLES]]
+
+
+class _Run:
+    """One pass over the frames: the per-cell results go to a :class:`CellSpool` on disk, the
+    per-frame ones stay in memory.  ``small`` is the dataset without the ``time`` x ``cell``
+    variables (:attr:`cell_names`), which :meth:`cell_variable` assembles."""
+
+    def __init__(self, labels, pixel_size, frame_interval, *, modes, length_unit, time_unit, times,
+                 percolation_threshold, track, v0, Dr, neighbours, scratch):
+        if int(modes) < 2:
+            raise MeasureInputError(f"modes must be >= 2, got {modes}")
+        if neighbours not in ("voronoi", "contact"):
+            raise MeasureInputError(f"neighbours must be 'voronoi' or 'contact', got {neighbours!r}")
+        if frame_interval is not None and not (np.isfinite(frame_interval) and frame_interval > 0):
+            raise MeasureInputError(f"frame interval must be positive, got {frame_interval!r}")
+        cal = resolve(labels, None if pixel_size is None else _pixel_pair(pixel_size), frame_interval, length_unit,
+                      time_unit)
+        self.modes = int(modes)
+        self.cell_names = [n for n, (dims, _, _) in VARIABLES.items() if dims in (_C, _M)]
+        self.spool = CellSpool({n: (self._dtype(n), self._tail(n)) for n in self.cell_names}, scratch)
+        try:
+            self.small = self._measure(labels, cal, times, percolation_threshold, track, v0, Dr, neighbours)
+        except BaseException:
+            self.spool.close()
+            raise
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.spool.close()
+
+    @staticmethod
+    def _dtype(name):
+        return np.int32 if name in _CELL_INT else np.float64
+
+    def _tail(self, name):
+        return (self.modes - 1,) if VARIABLES[name][0] == _M else ()
+
+    def cell_variable(self, name: str, frames: slice = slice(None)) -> xr.Variable:
+        """The ``time`` x ``cell`` (x ``mode``) variable ``name``, of ``frames``."""
         dims, unit, long_name = VARIABLES[name]
-        data[name] = xr.Variable(dims, value, {"units": units[unit], "long_name": long_name})
-    for name, (code, conf, reason, flags) in movie_labels(diff, threshold=percolation_threshold).items():
-        data[f"{name}_movie"] = xr.Variable((), np.int8(code), {"long_name": LABELS[name], **flags})
-        data[f"{name}_movie_confidence"] = xr.Variable((), float(conf), {
-            "units": "1", "long_name": f"probability of the most probable {name} label"})
-        data[f"{name}_movie_reason"] = xr.Variable((), str(reason), {"long_name": f"why {name}_movie is what it is"})
-    ds = xr.Dataset(data, coords={
-        "time": ("time", t, {"units": time_unit, "long_name": "time of the frame"}),
-        "mode": ("mode", np.arange(2, int(modes) + 1, dtype=np.int32),
-                 {"units": "1", "long_name": "Fourier mode number n"}),
-        "lag_time": ("lag", np.arange(T) * (dt[0] if T > 1 else 0.0),
-                     {"units": time_unit, "long_name": "lag time of the msd"}),
-        "cage_lag_time": ("cage_lag", np.asarray(lags_cr, dtype=float),
-                          {"units": time_unit, "long_name": "lag time of cage_msd and F_s"})})
-    ds.attrs.update(Conventions="CF-1.8", title="fcsweep measure: shape and defect observables of a segmented "
-                    "cell monolayer", pixel_size_x=px, pixel_size_y=py, length_unit=length_unit,
-                    time_unit=time_unit, modes=int(modes), neighbours=neighbours,
-                    v0=np.nan if v0 is None else float(v0),
-                    Dr=np.nan if Dr is None else float(Dr), percolation_threshold=float(percolation_threshold),
-                    image_shape=np.asarray(shape, dtype=np.int32), q_star=Q_STAR,
-                    history=f"{_dt.datetime.now(_dt.timezone.utc).isoformat(timespec='seconds')} fcsweep measure",
-                    fcsweep_version=__version__)
-    return ds
+        arr = self.spool.dense(name, self.ncell, _CELL_INT.get(name, np.nan), self._dtype(name), frames)
+        return xr.Variable(dims, arr, {"units": self.units[unit], "long_name": long_name})
+
+    def _measure(self, labels, cal, times, percolation_threshold, track, v0, Dr, neighbours) -> xr.Dataset:
+        px, py = cal.pixel_size
+        frame_interval, length_unit, time_unit = cal.frame_interval, cal.length_unit, cal.time_unit
+        modes = self.modes
+        per_frame, shape = [], None
+        prev, prev_tracks, next_id = None, {}, 0
+        prev_bonds = prev_index = None
+        for _, frame in iter_frames(labels):
+            shape = frame.shape
+            cells = measure_cells(frame, (px, py), modes)
+            if track:
+                cells["index"], next_id = link_frames(prev, prev_tracks, frame, cells["label"], next_id)
+                prev, prev_tracks = frame, dict(zip(cells["label"].tolist(), cells["index"].tolist()))
+            else:
+                cells["index"] = np.arange(len(cells["label"]))
+                next_id = max(next_id, len(cells["label"]))
+            graph = contact_graph(frame, cells["label"]) if neighbours == "contact" else None
+            stats = frame_statistics(cells, (0.0, shape[1] * px, 0.0, shape[0] * py), percolation_threshold, graph)
+            cells.update(n_sides=stats.pop("n_sides"), defect=stats.pop("defect"))
+            bonds = stats.pop("bonds")
+            stats["bond_change_fraction"] = bond_changes(prev_bonds, prev_index, bonds, cells["index"]) \
+                if (track and prev_bonds is not None) else np.nan
+            prev_bonds, prev_index = bonds, cells["index"]
+            self.spool.append(cells, cells["index"])
+            per_frame.append(stats)
+        del prev, frame
+        T = len(per_frame)
+        if times is None:
+            t = np.arange(T) * float(frame_interval)
+        else:
+            t = np.asarray(times, dtype=float)
+            if t.shape != (T,) or not np.all(np.diff(t) > 0):
+                raise MeasureInputError(f"times must be {T} increasing time stamps, got shape {t.shape}")
+        self.ncell = ncell = next_id
+        units = {"L": length_unit, "L2": f"{length_unit}2" if length_unit != "1" else "1", "T": time_unit, "1": "1"}
+        units["L2/T"] = " ".join([u for u in (units["L2"], f"{time_unit}-1") if u not in ("1", "1-1")]) or "1"
+        self.units = units
+        data = {}
+        for name, (dims, unit, long_name) in VARIABLES.items():
+            if dims == _T:
+                data[name] = xr.Variable(dims, np.array([f[name] for f in per_frame], dtype=float),
+                                         {"units": units[unit], "long_name": long_name})
+        dt = np.diff(t)
+        even = T < 2 or np.allclose(dt, dt[0], rtol=1e-6)
+        # the MSD's window average needs equally spaced frames; a cut cell's centroid moves with the cut
+        cut = self.spool.dense("edge_cut", ncell, np.nan, np.float64) == 1
+        xs, ys = (self.spool.dense(v, ncell, np.nan, np.float64) for v in ("x", "y"))
+        xs[cut], ys[cut] = np.nan, np.nan
+        del cut
+        msd, n_tracked = tracked_msd(xs, ys) if track else (np.full(T, np.nan), 0)
+        if not even:
+            msd = np.full(T, np.nan)
+        diff = tracked_diffusion(t, xs, ys, v0=v0, Dr=Dr) if (track and even) \
+            else tracked_diffusion(t[:1], xs[:1], ys[:1])
+        bounds = (0.0, shape[1] * px, 0.0, shape[0] * py)
+        n_eff = float(np.mean(data["n_cells"].values - data["n_edge_cut"].values / 2))  # a cut cell counts half
+        cb, cage = tracked_cages(t, xs, ys, bounds, n_eff, v0=v0, Dr=Dr) \
+            if (track and even) else (None, tracked_cages(t[:1], xs[:1], ys[:1], bounds, 1.0)[1])
+        del xs, ys
+        diff.update(cage)
+        lags_cr = cb.lags if cb is not None else np.zeros(0)
+        diff.update(cage_msd=cb.cr_msd if cb is not None else np.zeros(0),
+                    F_s=cb.F_s if cb is not None else np.zeros(0))
+        for name in AVERAGED:
+            series = data[name].values
+            avg = time_average(series, equilibrate=False) if np.all(np.isfinite(series)) else None
+            diff[f"{name}_movie"] = avg.mean if avg else np.nan
+            diff[f"{name}_movie_err"] = avg.err if avg else np.nan
+        for name, value in (("msd", msd), ("n_tracked", np.int32(n_tracked)), *diff.items()):
+            dims, unit, long_name = VARIABLES[name]
+            data[name] = xr.Variable(dims, value, {"units": units[unit], "long_name": long_name})
+        for name, (code, conf, reason, flags) in movie_labels(diff, threshold=percolation_threshold).items():
+            data[f"{name}_movie"] = xr.Variable((), np.int8(code), {"long_name": LABELS[name], **flags})
+            data[f"{name}_movie_confidence"] = xr.Variable((), float(conf), {
+                "units": "1", "long_name": f"probability of the most probable {name} label"})
+            data[f"{name}_movie_reason"] = xr.Variable((), str(reason),
+                                                       {"long_name": f"why {name}_movie is what it is"})
+        ds = xr.Dataset(data, coords={
+            "time": ("time", t, {"units": time_unit, "long_name": "time of the frame"}),
+            "mode": ("mode", np.arange(2, modes + 1, dtype=np.int32),
+                     {"units": "1", "long_name": "Fourier mode number n"}),
+            "lag_time": ("lag", np.arange(T) * (dt[0] if T > 1 else 0.0),
+                         {"units": time_unit, "long_name": "lag time of the msd"}),
+            "cage_lag_time": ("cage_lag", np.asarray(lags_cr, dtype=float),
+                              {"units": time_unit, "long_name": "lag time of cage_msd and F_s"})})
+        ds.attrs.update(Conventions="CF-1.8", title="fcsweep measure: shape and defect observables of a segmented "
+                        "cell monolayer", pixel_size_x=px, pixel_size_y=py, length_unit=length_unit,
+                        time_unit=time_unit, modes=modes, neighbours=neighbours,
+                        v0=np.nan if v0 is None else float(v0),
+                        Dr=np.nan if Dr is None else float(Dr), percolation_threshold=float(percolation_threshold),
+                        image_shape=np.asarray(shape, dtype=np.int32), q_star=Q_STAR,
+                        history=f"{_dt.datetime.now(_dt.timezone.utc).isoformat(timespec='seconds')} fcsweep measure",
+                        fcsweep_version=__version__)
+        return ds
+
+
+def _encoding(ds: xr.Dataset) -> dict:
+    return {v: {"_FillValue": None if v in ds.coords else np.nan} for v in ds.variables if ds[v].dtype.kind == "f"}
+
+
+def measure_to_file(labels, out_dir, pixel_size=None, frame_interval=None, *, attrs: dict | None = None,
+                    **options) -> Path:
+    """Measure ``labels`` and write ``out_dir/measure.nc`` without holding the ``time`` x
+    ``cell`` variables in memory: the file that ``write_measure(measure(labels, ...))``
+    writes, with the same variables, values and attributes.
+
+    Parameters
+    ----------
+    labels, pixel_size, frame_interval
+        As :func:`measure`.
+    out_dir : path-like
+        Output directory (made if missing); the per-cell results are spooled to a
+        temporary directory in it while the frames are measured.
+    attrs : dict, optional
+        Global attributes to add (e.g. ``source``).
+    **options
+        The keyword options of :func:`measure`.
+
+    Returns
+    -------
+    Path
+        ``out_dir/measure.nc``.
+    """
+    out_dir = Path(out_dir)
+    made = not out_dir.exists()
+    out_dir.mkdir(parents=True, exist_ok=True)
+    options.setdefault("scratch", out_dir)  # not the system's /tmp, often a RAM disk
+    try:
+        return _stream(labels, out_dir, pixel_size, frame_interval, attrs, options)
+    except BaseException:
+        if made and not any(out_dir.iterdir()):
+            out_dir.rmdir()
+        raise
+
+
+def _stream(labels, out_dir, pixel_size, frame_interval, attrs, options) -> Path:
+    with _Run(labels, pixel_size, frame_interval, **_run_options(options)) as run:
+        small = run.small
+        small.attrs.update(attrs or {})
+        cells = {}
+        for name in run.cell_names:
+            dims, unit, long_name = VARIABLES[name]
+            cells[name] = (dims, run._dtype(name), _CELL_INT.get(name, np.nan),
+                           {"units": run.units[unit], "long_name": long_name})
+
+        def write(tmp):
+            small.to_netcdf(tmp, format="NETCDF4", encoding=_encoding(small))
+            append_cell_variables(tmp, run.spool, run.ncell, cells)
+
+        return atomic_write(out_dir / OUTPUT_NAME, write, suffix=".nc")
+
+
+def _run_options(options: dict) -> dict:
+    defaults = dict(modes=6, length_unit=None, time_unit=None, times=None, percolation_threshold=PERCOLATION_THRESHOLD,
+                    track=True, v0=None, Dr=None, neighbours="voronoi", scratch=None)
+    unknown = set(options) - set(defaults)
+    if unknown:
+        raise TypeError(f"unknown options {sorted(unknown)}")
+    return {**defaults, **options}
 
 
 def write_measure(ds: xr.Dataset, out_dir) -> Path:
     """Write ``ds`` to ``out_dir/measure.nc`` through :func:`fcsweep.io.sweepdir.atomic_write`."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    enc = {v: {"_FillValue": None if v in ds.coords else np.nan} for v in ds.variables if ds[v].dtype.kind == "f"}
-    return atomic_write(out_dir / OUTPUT_NAME, lambda tmp: ds.to_netcdf(tmp, format="NETCDF4", encoding=enc),
+    return atomic_write(out_dir / OUTPUT_NAME, lambda tmp: ds.to_netcdf(tmp, format="NETCDF4", encoding=_encoding(ds)),
                         suffix=".nc")

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["MeasureInputError", "iter_frames", "read_seg_npy", "check_frame", "available_memory",
+__all__ = ["MeasureInputError", "iter_frames", "read_seg_npy", "check_frame", "available_memory", "tiff_metadata",
            "FRAME_MEMORY_FACTOR", "IMAGE_SUFFIXES"]
 
 #: Bytes of work memory per pixel the measurement of one frame needs, as a multiple of the
@@ -154,8 +154,36 @@ def _frames_of_array(arr: np.ndarray, where: str):
         raise MeasureInputError(f"{where}: expected a 2-D frame or a T x Y x X stack, got shape {arr.shape}")
 
 
+def _frames_of_raw(path: Path, offset: int, dtype: np.dtype, shape):
+    """Frames of a contiguous C-ordered T x Y x X array at ``offset`` in a file, each read by
+    itself.  Not memory-mapped: the pages of a mapped stack stay resident in the process
+    (8 MB per 2048 x 2048 uint16 frame) until the whole map is closed."""
+    count = int(shape[1]) * int(shape[2])
+    with open(path, "rb") as fh:
+        for k in range(shape[0]):
+            fh.seek(offset + k * count * dtype.itemsize)
+            frame = np.fromfile(fh, dtype=dtype, count=count)
+            if frame.size != count:
+                raise MeasureInputError(f"{path} frame {k}: the file ends inside the frame")
+            yield f"{path} frame {k}", frame.reshape(shape[1], shape[2])
+
+
+def _npy_stack(path: Path):
+    """(offset, dtype, shape) of a plain C-ordered 3-D ``.npy`` array, else None."""
+    with open(path, "rb") as fh:
+        try:
+            version = np.lib.format.read_magic(fh)
+            read = np.lib.format.read_array_header_1_0 if version == (1, 0) else np.lib.format.read_array_header_2_0
+            shape, fortran, dtype = read(fh)
+        except ValueError:
+            return None
+        if dtype.kind == "O" or fortran or len(shape) != 3:
+            return None
+        return fh.tell(), dtype, shape
+
+
 def _frames_of_tiff(path: Path):
-    """Frames of a TIFF's first series, one at a time: memory-mapped when the series is stored
+    """Frames of a TIFF's first series, one at a time: read straight from the file when the series is stored
     contiguous and uncompressed, else page by page."""
     tifffile = _need("tifffile")
     with tifffile.TiffFile(path) as tif:
@@ -169,10 +197,7 @@ def _frames_of_tiff(path: Path):
             return
         if series.dataoffset is not None:
             dtype = np.dtype(series.dtype).newbyteorder(tif.byteorder)
-            stack = np.memmap(path, dtype=dtype, mode="r", offset=series.dataoffset, shape=shape)
-            for k in range(shape[0]):
-                yield f"{path} frame {k}", np.array(stack[k])
-            del stack
+            yield from _frames_of_raw(path, series.dataoffset, dtype, shape)
         elif len(series.pages) == shape[0]:
             for k, page in enumerate(series.pages):
                 yield f"{path} frame {k}", page.asarray()
@@ -181,6 +206,20 @@ def _frames_of_tiff(path: Path):
             stack = series.asarray()
             for k in range(shape[0]):
                 yield f"{path} frame {k}", stack[k]
+
+
+def tiff_metadata(path) -> dict:
+    """The calibration metadata of a TIFF, unparsed: ``ome`` (the OME-XML string or None),
+    ``imagej`` (the ImageJ metadata dict or None) and ``resolution`` (the first page's
+    ``XResolution``, ``YResolution`` rationals, or None)."""
+    tifffile = _need("tifffile")
+    with tifffile.TiffFile(path) as tif:
+        tags = tif.pages[0].tags
+        res = None
+        if "XResolution" in tags:
+            res = (tags["XResolution"].value, tags.get("YResolution", tags["XResolution"]).value)
+        return {"ome": tif.ome_metadata if tif.is_ome else None,
+                "imagej": (tif.imagej_metadata or {}) if tif.is_imagej else None, "resolution": res}
 
 
 def _frames_of_png(path: Path):
@@ -201,6 +240,11 @@ def _frames_of_file(path: Path):
     elif name.endswith(".png"):
         yield from _frames_of_png(path)
     elif name.endswith(".npy"):
+        raw = _npy_stack(path)
+        if raw is not None:
+            _check_size(raw[2][-2:], str(path))
+            yield from _frames_of_raw(path, *raw)
+            return
         arr = read_seg_npy(path)
         if arr.ndim >= 2:
             _check_size(arr.shape[-2:], str(path))
