@@ -32,8 +32,9 @@ broadened by that much (a relative height loss ``~ (0.4 h / width)^2 / 2``).
 Cost: ``M = (Lx / h)(Ly / h)`` cells, ``A / N`` per cell area ``a^2 sqrt(3)/2`` (``a`` the
 mean spacing): at the pipeline's bins ``dr = 0.1 R0`` (about ``a / 20``) and the default
 ``h = dr / sqrt(2)``, ``M ~ 700 N``; the grid work is 2 real FFTs per real and 2 per
-complex weight and one inverse per estimator, plus O(M) binning, in float64 memory of
-about ``4 x 8 M`` bytes.
+complex weight and one inverse per estimator, plus O(M) binning; each weighted
+autocorrelation is binned and dropped before the next, so the float64 working memory is
+about ``5 x 8 M`` bytes (the count grid, one field, its half spectrum and their sum).
 
 Lengths are in the units of the positions passed in.
 """
@@ -115,7 +116,10 @@ def _power(idx: np.ndarray, grid: Grid, weights, workers: int) -> np.ndarray:
         del field
         p = F.real ** 2 + F.imag ** 2
         del F
-        out = p if out is None else out + p
+        if out is None:
+            out = p
+        else:
+            out += p
     return out
 
 
@@ -195,6 +199,11 @@ def strip_sums(grid: Grid, field: np.ndarray, orientation: float, dx: float, n_b
     return out, cells
 
 
+def _ratio(sums: np.ndarray, counts: np.ndarray) -> np.ndarray:
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(counts > 0, sums / counts, np.nan)
+
+
 @dataclass
 class Correlations:
     """Result of :func:`correlations` (NaN where a bin holds no pair).
@@ -258,26 +267,29 @@ def correlations(pos: np.ndarray, box, *, psi=None, G=None, orientation: float |
     grid = make_grid(box, h)
     r = bin_centres(r_max, dr)
     P = autocorrelation(pos, grid, workers=workers)
-    fields = [P]
+    counts = radial_sums(grid, [P], dr, r.size)[0]
+    G6 = C_G1 = None
+    # each weighted autocorrelation is binned and dropped before the next (memory ~ 3 grids)
     if psi is not None:
-        fields.append(autocorrelation(pos, grid, np.asarray(psi, dtype=complex), workers=workers))
+        s6 = radial_sums(grid, [autocorrelation(pos, grid, np.asarray(psi, dtype=complex), workers=workers)],
+                         dr, r.size)[0]
+        G6 = _ratio(s6, counts)
     if G is not None:
         G = np.asarray(G, dtype=float).reshape(-1, 2)
         idx = cell_index(pos, grid)
         spec = None
         for g in G:
             p = _power(idx, grid, np.exp(1j * (pos @ g)), workers)
-            spec = p if spec is None else spec + p
+            if spec is None:
+                spec = p
+            else:
+                spec += p
+            del p
         CG = scipy.fft.irfft2(spec, s=grid.shape, workers=workers) / G.shape[0]
         del spec
         CG[0, 0] -= N
-        fields.append(CG)
-    sums = radial_sums(grid, fields, dr, r.size)
-    counts = sums[0]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        ratio = [np.where(counts > 0, s / counts, np.nan) for s in sums[1:]]
-    G6 = ratio.pop(0) if psi is not None else None
-    C_G1 = ratio.pop(0) if G is not None else None
+        C_G1 = _ratio(radial_sums(grid, [CG], dr, r.size)[0], counts)
+        del CG
     x = Gr = None
     if want_gr:
         x_max = np.sqrt(max(r_max ** 2 - (dx / 2) ** 2, 0.0))
