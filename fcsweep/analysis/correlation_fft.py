@@ -29,12 +29,14 @@ a pair moves at most one bin when ``h <= dr / sqrt(2)``, the default
 ``0.4 h`` in ``r``; ``G_r`` peaks, a histogram of the separations themselves, are
 broadened by that much (a relative height loss ``~ (0.4 h / width)^2 / 2``).
 
-Cost: ``M = (Lx / h)(Ly / h)`` cells, ``A / N`` per cell area ``a^2 sqrt(3)/2`` (``a`` the
-mean spacing): at the pipeline's bins ``dr = 0.1 R0`` (about ``a / 20``) and the default
-``h = dr / sqrt(2)``, ``M ~ 700 N``; the grid work is 2 real FFTs per real and 2 per
-complex weight and one inverse per estimator, plus O(M) binning; each weighted
-autocorrelation is binned and dropped before the next, so the float64 working memory is
-about ``5 x 8 M`` bytes (the count grid, one field, its half spectrum and their sum).
+Cost: ``M = (Lx / h)(Ly / h) = N (sqrt(3) / 2) (a / h)^2`` cells (``a`` the mean
+spacing).  At the pipeline's bins (``dr = 0.1 R0``, about ``a / 20``) and the default
+``h = dr / sqrt(2)``, ``M ~ 700 N`` (measured 730-750).  The grid work is one real FFT
+per real weight and two per complex one (its real and imaginary parts): 1 + 2 + 3 x 2
+for the counts, psi6 and three G vectors, one inverse per estimator, and O(M) binning.
+Each weighted autocorrelation is binned and dropped before the next, so the float64
+working memory is about ``5 x 8 M`` bytes (the count grid, one field, its half spectrum
+and their sum).
 
 Lengths are in the units of the positions passed in.
 """
