@@ -219,7 +219,8 @@ class Correlations:
     G6, C_G1 : ndarray, shape (B,) or None
         As :func:`order.g6` and :func:`order.shell_correlation` (None if not asked for).
     x, Gr : ndarray or None
-        As :func:`order.gr_cut`.
+        As :func:`order.gr_cut` (``Gr`` NaN where no grid displacement lies in a strip
+        bin, which only a grid coarser than ``dx`` leaves).
     grid : Grid
     """
 
