@@ -38,6 +38,13 @@ Each weighted autocorrelation is binned and dropped before the next, so the floa
 working memory is about ``5 x 8 M`` bytes (the count grid, one field, its half spectrum
 and their sum).
 
+A coarser grid (``h`` given) keeps the fits but not the bin-by-bin bound: on 64 x 64
+harmonic crystals (10 frames, ``dr = dx = 0.1 a``) the exponents and labels of
+:mod:`fcsweep.analysis.kthny` read from grids of ``h = a / 14`` (the default), ``a / 8``
+and ``a / 4`` were eta_G1 = 0.133, 0.133, 0.141 (pair count 0.148 +- 0.019, solid) and
+0.546, 0.539, 0.526 (pair count 0.572 +- 0.096, hexatic), every label the pair count's.
+At ``h = a / 4`` (``M ~ 14 N``) the grid needs 50x fewer cells than the default.
+
 Lengths are in the units of the positions passed in.
 """
 
