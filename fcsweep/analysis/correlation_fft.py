@@ -43,7 +43,8 @@ harmonic crystals (10 frames, ``dr = dx = 0.1 a``) the exponents and labels of
 :mod:`fcsweep.analysis.kthny` read from grids of ``h = a / 14`` (the default), ``a / 8``
 and ``a / 4`` were eta_G1 = 0.133, 0.133, 0.141 (pair count 0.148 +- 0.019, solid) and
 0.546, 0.539, 0.526 (pair count 0.572 +- 0.096, hexatic), every label the pair count's.
-At ``h = a / 4`` (``M ~ 14 N``) the grid needs 50x fewer cells than the default.
+At ``h = a / 4`` (``M ~ 14 N``) the grid is 50x smaller than the default at the
+pipeline's bins (``M ~ 700 N``).
 
 Lengths are in the units of the positions passed in.
 """
