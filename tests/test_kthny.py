@@ -24,7 +24,7 @@ from fcsweep.analysis import kthny, order
 from fcsweep.analysis.cage import neighbour_spacing
 from fcsweep.analysis.phase import (KTHNY_FLAGS, KTHNY_HEXATIC, KTHNY_LIQUID, KTHNY_SOLID, KTHNY_UNDETERMINED,
                                     kthny_name)
-from fcsweep.analysis.pipeline import _frame_mean
+from fcsweep.results.analyze import _frame_mean
 
 MAKERS = {
     "crystal 0.1": lambda g: triangular_crystal(64, 0.1, g),

@@ -23,8 +23,8 @@ import pytest
 from click.testing import CliRunner
 
 from fcsweep.analysis import pipeline
-from fcsweep.analysis.aggregate import _RUN_STATUS, build_dataset
-from fcsweep.analysis.pipeline import analyze_run, analyze_sweep
+from fcsweep.results.aggregate import _RUN_STATUS, build_dataset
+from fcsweep.results.analyze import analyze_run, analyze_sweep
 from fcsweep.cli import cli
 from fcsweep.config import load_config
 from fcsweep.io import schema

@@ -11,9 +11,9 @@ import pytest
 import xarray as xr
 from click.testing import CliRunner
 
-from fcsweep.analysis.aggregate import aggregate_sweep
+from fcsweep.results.aggregate import aggregate_sweep
 from fcsweep.analysis.phase import PERCOLATION_FLAGS, PHASE_FLAGS
-from fcsweep.analysis.pipeline import analyze_sweep
+from fcsweep.results.analyze import analyze_sweep
 from fcsweep.cli import cli
 from fcsweep.config import ConfigError, parse_config
 from fcsweep.io.refinement import append_round, read_points

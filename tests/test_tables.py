@@ -10,8 +10,8 @@ from pathlib import Path
 import pytest
 
 from fcsweep.config import MODEL_DEFAULTS, ConfigError, json_schema, parse_config
-from fcsweep.io.observables import CURVES, OBSERVABLES, RUN_SCALARS, UNTIL_OBSERVABLES
-from fcsweep.io.observables import markdown_table as observables_table
+from fcsweep.model.observables import CURVES, OBSERVABLES, RUN_SCALARS, UNTIL_OBSERVABLES
+from fcsweep.model.observables import markdown_table as observables_table
 from fcsweep.model.parameters import DEFAULTS, PARAMETERS
 from fcsweep.model.parameters import markdown_table as parameters_table
 from fcsweep.simulation import SimParams
@@ -71,8 +71,8 @@ def test_each_float_range_is_enforced_by_config_schema_and_engine(name, tmp_path
 
 
 def test_observables_table_covers_pipeline_aggregate_and_until():
-    from fcsweep.analysis.aggregate import META, SCALAR_VARS
-    from fcsweep.analysis.pipeline import SCALARS
+    from fcsweep.results.aggregate import META, SCALAR_VARS
+    from fcsweep.results.analyze import SCALARS
 
     assert set(SCALARS) == set(RUN_SCALARS) | {n for n, o in OBSERVABLES.items() if o.kind == "label"}
     assert SCALAR_VARS == RUN_SCALARS

@@ -9,7 +9,7 @@ CHECKPOINT = "checkpoint.npz"
 STATUS = "status.json"
 LOCK = "run.lock"
 ANALYSIS = "analysis.h5"
-#: Written by a failed analysis (``fcsweep.analysis.pipeline.ANALYSIS_ERROR_FILE``).
+#: Written by a failed analysis (``fcsweep.results.analyze.ANALYSIS_ERROR_FILE``).
 ANALYSIS_ERROR = "analysis_error.txt"
 #: File names inside ``<output>/``: the aggregated dataset and the points ``fcsweep refine`` added.
 DATASET = "phase_diagram.nc"

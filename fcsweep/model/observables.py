@@ -5,7 +5,7 @@ the phase-diagram dataset is one :class:`Observable` row of :data:`OBSERVABLES`:
 kind, CF long name and units, whether it is reduced over replicates and whether
 ``run.until.rel_error`` may target it.  From this table come the scalars the analysis
 writes (:data:`RUN_SCALARS`), the curves and their coordinates (:data:`CURVES`), the
-NetCDF variables and their attributes (:mod:`fcsweep.analysis.aggregate`) and the
+NetCDF variables and their attributes (:mod:`fcsweep.results.aggregate`) and the
 ``run.until`` observables the config accepts (:data:`UNTIL_OBSERVABLES`).  Lengths are in
 units of R0, times in the model's time unit; both are reduced, hence CF units "1"
 (``long_name`` says which); strings carry no units.
@@ -22,7 +22,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 __all__ = ["Observable", "OBSERVABLES", "RUN_SCALARS", "LABELS", "CURVES", "TEXTS", "REPLICATE_REDUCED",
-           "UNTIL_OBSERVABLES", "KINDS"]
+           "UNTIL_OBSERVABLES", "KINDS", "REASONS", "KTHNY_FITS", "group"]
 
 KINDS = ("run", "label", "curve", "text", "coord", "dataset")
 
@@ -47,6 +47,9 @@ class Observable:
         Reduced over replicates by the aggregate (``<name>_rmean``, ``_rmean_err``, ``_rchi2``).
     until : bool
         ``run.until.rel_error`` may target it (it carries a 1-sigma error ``<name>_err``).
+    group : str
+        The fit it comes from, where one fit gives several: ``kthny`` (the KTHNY fits of one
+        run), ``fss`` and ``fss_shuffled`` (the finite-size collapses of the aggregate).
     """
 
     name: str
@@ -56,6 +59,7 @@ class Observable:
     axis: str = ""
     replicate: bool = False
     until: bool = False
+    group: str = ""
 
     def __post_init__(self):
         if self.kind not in KINDS:
@@ -131,17 +135,17 @@ OBSERVABLES: dict[str, Observable] = {o.name: o for o in (
                                "cages did not break (the fluid rule)", replicate=True),
     _O("D_eff_cr_late_err", "run", "1-sigma error of D_eff_cr_late (spatially contiguous cell blocks)"),
     _O("eta_G1", "run", "first-shell translational exponent: algebraic decay of C_G1(r) (the KTHNY solid bound "
-                        "1/3 applies to it)"),
-    _O("eta_G1_err", "run", "1-sigma error of eta_G1: statistical and the spread over fit ranges in quadrature"),
+                        "1/3 applies to it)", group="kthny"),
+    _O("eta_G1_err", "run", "1-sigma error of eta_G1: statistical and the spread over fit ranges in quadrature", group="kthny"),
     _O("eta_T", "run", "algebraic decay exponent of the G_r(dx, 0) - 1 peak envelope (all Bragg shells: steeper "
-                       "than eta_G1)"),
-    _O("eta_T_err", "run", "1-sigma error of eta_T: statistical and the spread over fit ranges in quadrature"),
-    _O("xi_T", "run", "exponential decay length of the G_r(dx, 0) - 1 peak envelope (units of R0)"),
-    _O("xi_T_err", "run", "1-sigma error of xi_T"),
-    _O("eta_6", "run", "algebraic decay exponent of G6(r)"),
-    _O("eta_6_err", "run", "1-sigma error of eta_6: statistical and the spread over fit ranges in quadrature"),
-    _O("xi_6", "run", "exponential decay length of G6(r) (units of R0)"),
-    _O("xi_6_err", "run", "1-sigma error of xi_6"),
+                       "than eta_G1)", group="kthny"),
+    _O("eta_T_err", "run", "1-sigma error of eta_T: statistical and the spread over fit ranges in quadrature", group="kthny"),
+    _O("xi_T", "run", "exponential decay length of the G_r(dx, 0) - 1 peak envelope (units of R0)", group="kthny"),
+    _O("xi_T_err", "run", "1-sigma error of xi_T", group="kthny"),
+    _O("eta_6", "run", "algebraic decay exponent of G6(r)", group="kthny"),
+    _O("eta_6_err", "run", "1-sigma error of eta_6: statistical and the spread over fit ranges in quadrature", group="kthny"),
+    _O("xi_6", "run", "exponential decay length of G6(r) (units of R0)", group="kthny"),
+    _O("xi_6_err", "run", "1-sigma error of xi_6", group="kthny"),
     _O("kthny_confidence", "run", "probability of the KTHNY label given the fit errors"),
     _O("replicate", "coord", "replicate index (independent noise)"),
     _O("lag_time", "coord", "MSD lag time (model time units)"),
@@ -196,25 +200,25 @@ OBSERVABLES: dict[str, Observable] = {o.name: o for o in (
     _O("tau_fisher_err", "dataset", "1-sigma error of tau_fisher"),
     _O("tau_fisher_reason", "text", "why tau_fisher is undetermined or flagged (empty: a usable fit)", units=""),
     _O("fss_rho_c", "dataset", "percolation threshold of rho_d from the finite-size collapse of "
-                               "largest_cluster_fraction over N and eta (critical 1/2)"),
-    _O("fss_rho_c_err", "dataset", "1-sigma bootstrap error of fss_rho_c"),
-    _O("fss_nu", "dataset", "correlation-length exponent nu of the finite-size collapse (critical 4/3)"),
-    _O("fss_nu_err", "dataset", "1-sigma bootstrap error of fss_nu"),
-    _O("fss_beta", "dataset", "order-parameter exponent beta of the finite-size collapse (critical 5/36)"),
-    _O("fss_beta_err", "dataset", "1-sigma bootstrap error of fss_beta"),
-    _O("fss_quality", "dataset", "collapse quality S at the fit (~1: the sizes collapse within their errors)"),
+                               "largest_cluster_fraction over N and eta (critical 1/2)", group="fss"),
+    _O("fss_rho_c_err", "dataset", "1-sigma bootstrap error of fss_rho_c", group="fss"),
+    _O("fss_nu", "dataset", "correlation-length exponent nu of the finite-size collapse (critical 4/3)", group="fss"),
+    _O("fss_nu_err", "dataset", "1-sigma bootstrap error of fss_nu", group="fss"),
+    _O("fss_beta", "dataset", "order-parameter exponent beta of the finite-size collapse (critical 5/36)", group="fss"),
+    _O("fss_beta_err", "dataset", "1-sigma bootstrap error of fss_beta", group="fss"),
+    _O("fss_quality", "dataset", "collapse quality S at the fit (~1: the sizes collapse within their errors)", group="fss"),
     _O("fss_reason", "text", "why the finite-size collapse is undetermined or flagged (empty: a usable fit)", units=""),
     _O("fss_shuffled_rho_c", "dataset", "percolation threshold of rho_d from the finite-size collapse of "
                                         "largest_cluster_fraction_shuffled (labels permuted: random site "
                                         "percolation on the cells' graph, critical 1/2); fss_rho_c - "
-                                        "fss_shuffled_rho_c is the shift caused by defect correlations"),
-    _O("fss_shuffled_rho_c_err", "dataset", "1-sigma bootstrap error of fss_shuffled_rho_c"),
-    _O("fss_shuffled_nu", "dataset", "correlation-length exponent nu of the shuffled-label collapse (critical 4/3)"),
-    _O("fss_shuffled_nu_err", "dataset", "1-sigma bootstrap error of fss_shuffled_nu"),
-    _O("fss_shuffled_beta", "dataset", "order-parameter exponent beta of the shuffled-label collapse (critical 5/36)"),
-    _O("fss_shuffled_beta_err", "dataset", "1-sigma bootstrap error of fss_shuffled_beta"),
+                                        "fss_shuffled_rho_c is the shift caused by defect correlations", group="fss_shuffled"),
+    _O("fss_shuffled_rho_c_err", "dataset", "1-sigma bootstrap error of fss_shuffled_rho_c", group="fss_shuffled"),
+    _O("fss_shuffled_nu", "dataset", "correlation-length exponent nu of the shuffled-label collapse (critical 4/3)", group="fss_shuffled"),
+    _O("fss_shuffled_nu_err", "dataset", "1-sigma bootstrap error of fss_shuffled_nu", group="fss_shuffled"),
+    _O("fss_shuffled_beta", "dataset", "order-parameter exponent beta of the shuffled-label collapse (critical 5/36)", group="fss_shuffled"),
+    _O("fss_shuffled_beta_err", "dataset", "1-sigma bootstrap error of fss_shuffled_beta", group="fss_shuffled"),
     _O("fss_shuffled_quality", "dataset", "collapse quality S of the shuffled-label collapse (~1: the sizes "
-                                          "collapse within their errors)"),
+                                          "collapse within their errors)", group="fss_shuffled"),
     _O("fss_shuffled_reason", "text", "why the shuffled-label finite-size collapse is undetermined or flagged "
                                       "(empty: a usable fit)", units=""),
     _O("status", "dataset", "run and analysis status"),
@@ -237,6 +241,17 @@ TEXTS = _names("text")
 CURVES = {name: o.axis for name, o in OBSERVABLES.items() if o.kind == "curve"}
 #: Observables reduced over replicates.
 REPLICATE_REDUCED = tuple(name for name, o in OBSERVABLES.items() if o.replicate)
+#: Label explanations of a run (``<label>_reason``), strings beside the labels.
+REASONS = tuple(f"{label}_reason" for label in LABELS)
+
+
+def group(name: str) -> tuple[str, ...]:
+    """The observables of one fit (:attr:`Observable.group`), in table order."""
+    return tuple(n for n, o in OBSERVABLES.items() if o.group == name)
+
+
+#: KTHNY fit results of one run (:func:`fcsweep.analysis.kthny.kthny_fits`).
+KTHNY_FITS = group("kthny")
 #: Observables ``run.until.rel_error`` may target.
 UNTIL_OBSERVABLES = tuple(name for name, o in OBSERVABLES.items() if o.until)
 
