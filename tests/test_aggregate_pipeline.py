@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from fcsweep.results.aggregate import aggregate_sweep, build_dataset
+from fcsweep.results.aggregate import STATUS_FLAGS, aggregate_sweep, build_dataset
 from fcsweep.results.figures import plot_sweep
 from fcsweep.results.analyze import analyze_run, analyze_sweep, read_analysis
 from fcsweep.analysis.phase import PHASE_SOLID, PHASE_UNDETERMINED
@@ -170,7 +170,7 @@ def test_dataset_round_trip_and_contents(sweep, tmp_path):
     assert ds["q_bin"].attrs["bounds"] == "q_bin_bounds"  # CF bounds carry no units
     failed = dict(eta=runs[3].params["eta"], v0=runs[3].params["v0"])
     assert np.isnan(ds["D_eff"].sel(failed).item())
-    assert ds["status"].sel(failed).item() == 2
+    assert STATUS_FLAGS[ds["status"].sel(failed).item()] == "failed"
     assert ds["phase"].sel(failed).item() == -1
     solid = ds.sel(eta=0.1, v0=0.03).squeeze()
     assert solid["phase"].item() == PHASE_SOLID and solid["psi6"].item() > 0.9

@@ -14,7 +14,7 @@ import xarray as xr
 from matplotlib.container import ErrorbarContainer
 from matplotlib.patches import Rectangle
 
-from fcsweep.analysis import figures as plots
+from fcsweep.results import figures as plots
 from fcsweep.model.lattice import hexagonal_lattice
 
 

@@ -436,7 +436,7 @@ def test_measured_movies_drawn_beside_simulated_points(tmp_path, monkeypatch):
     assert point.get_ydata()[0] == pytest.approx(float(m.rho_d_movie))
     assert [p.suffix for p in save_figure(fig, tmp_path / "plane")] == [".png", ".pdf"]
     # `fcsweep plot --measured DIR` adds the figure to the sweep's
-    from fcsweep.analysis import figures
+    from fcsweep.results import figures
 
     monkeypatch.setattr(figures, "sweep_dataset", lambda cfg: sim)
     monkeypatch.setattr(figures, "plot_dataset", lambda ds, outdir: [])

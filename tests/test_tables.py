@@ -95,3 +95,31 @@ def test_unknown_until_observable_names_the_allowed_ones(tmp_path):
         parse_config(text)
     for name in UNTIL_OBSERVABLES:
         assert name in str(exc.value)
+
+
+def test_status_flags_come_from_the_run_states_and_the_schema_lists_them():
+    """Every run state of io.schema has its own flag (interrupted and corrupt too), each flag
+    is one results_schema.md names with its code, and nothing else is a flag."""
+    from fcsweep.io.schema import DONE, STATUSES
+    from fcsweep.results.aggregate import STATUS_FLAGS
+
+    words = set(STATUS_FLAGS.values())
+    assert set(STATUSES) - {DONE} <= words and DONE not in words
+    assert words - set(STATUSES) == {"analysed", "not_analysed", "analysis_failed", "missing"}
+    text = (ROOT / "results_schema.md").read_text()
+    listed = re.search(r"`status` (0 analysed.*?):", text, re.S).group(1)
+    assert listed == ", ".join(f"{c} {w}" for c, w in sorted(STATUS_FLAGS.items()))
+
+
+def test_fit_groups_of_the_table():
+    """The KTHNY fit keys and the finite-size collapse variables are groups of the table,
+    each a value and its error (and the collapse's quality)."""
+    from fcsweep.model.observables import KTHNY_FITS, group
+
+    assert KTHNY_FITS and all(OBSERVABLES[n].kind == "run" for n in KTHNY_FITS)
+    assert {n for n in KTHNY_FITS if not n.endswith("_err")} == {n[:-4] for n in KTHNY_FITS if n.endswith("_err")}
+    for g in ("fss", "fss_shuffled"):
+        names = group(g)
+        assert f"{g}_quality" in names and all(OBSERVABLES[n].kind == "dataset" for n in names)
+        values = {n for n in names if not n.endswith(("_err", "_quality"))}
+        assert values == {n[:-4] for n in names if n.endswith("_err")} == {f"{g}_rho_c", f"{g}_nu", f"{g}_beta"}

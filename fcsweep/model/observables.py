@@ -221,7 +221,9 @@ OBSERVABLES: dict[str, Observable] = {o.name: o for o in (
                                           "collapse within their errors)", group="fss_shuffled"),
     _O("fss_shuffled_reason", "text", "why the shuffled-label finite-size collapse is undetermined or flagged "
                                       "(empty: a usable fit)", units=""),
-    _O("status", "dataset", "run and analysis status"),
+    _O("status", "dataset", "status of the run: a done run by its analysis (analysed, not_analysed, analysis_failed), "
+                            "any other by its state (failed, running, pending, interrupted, corrupt); missing where "
+                            "no run is"),
     _O("n_structure_frames", "dataset", "frames used for Voronoi, defect and order statistics"),
     _O("run_id", "text", "run identifier (directory name under runs/)", units=""),
 )}
