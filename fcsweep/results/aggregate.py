@@ -236,7 +236,8 @@ def _fill_runs(ds: xr.Dataset, dims, shape, entries, curve_coords) -> None:
         for v in SCALAR_VARS:
             data[v][loc] = sc.get(v, np.nan)
         nf = _frames_after_transient(sc)
-        data["n_structure_frames"][loc] = min(nf, res["settings"].get("structure_frames", nf)) if np.isfinite(nf) else np.nan
+        if np.isfinite(nf):
+            data["n_structure_frames"][loc] = min(nf, res["settings"].get("structure_frames", nf))
         for k in LABELS:
             labels[k][loc] = int(sc[k]) if np.isfinite(sc.get(k, np.nan)) else -1
         for n, c in CURVES.items():
