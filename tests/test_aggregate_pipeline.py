@@ -306,7 +306,7 @@ def test_fisher_exponent_per_point_pools_replicates():
     defects says so."""
     from percolation_lattice import cluster_counts
 
-    from fcsweep.results.aggregate import _fisher_exponents
+    from fcsweep.results.reduce import _fisher_exponents
     from fcsweep.analysis.percolation import TAU_2D
 
     c = np.stack([cluster_counts(32, 1000, p=0.5, seed=s) for s in (21, 22)])  # (replicate, size)
@@ -323,7 +323,7 @@ def test_fisher_exponent_per_point_pools_replicates():
 
 
 def test_replicate_error_check_reports_the_median_chi2():
-    from fcsweep.results.aggregate import replicate_error_check
+    from fcsweep.results.reduce import replicate_error_check
 
     ds = xr.Dataset({"D_eff_rchi2": (("eta",), [0.8, 1.2, np.nan, 5.0])})
     assert replicate_error_check(ds) == {"D_eff": (1.2, 3)}

@@ -165,7 +165,7 @@ def _sweep_dataset(n_v0=2):
 
 
 def test_aggregate_stores_one_collapse_per_v0():
-    from fcsweep.results.aggregate import _fss
+    from fcsweep.results.reduce import _fss
 
     ds = _sweep_dataset()
     _fss(ds, n_bootstrap=5)
@@ -183,7 +183,7 @@ def test_collapse_figures_draw_each_size(tmp_path):
     import matplotlib
 
     matplotlib.use("Agg")
-    from fcsweep.results.aggregate import _fss
+    from fcsweep.results.reduce import _fss
     from fcsweep.results.figures import (FSS_FIGURES, fss_collapse_figure, largest_cluster_unscaled,
                                           save_figure)
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from fcsweep.results.aggregate import POINT_INPUTS, _point_labels
+from fcsweep.results.reduce import POINT_INPUTS, _point_labels
 from fcsweep.analysis.cage import broken_probability
 from fcsweep.analysis.phase import (PHASE_FLUID, PHASE_SOLID, PHASE_UNDETERMINED, classify_percolation,
                                     phase_evidence, phase_label)

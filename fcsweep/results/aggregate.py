@@ -48,9 +48,11 @@ from fcsweep.io.schema import DONE, PENDING
 from fcsweep.io.sweepdir import atomic_write, run_path, run_state
 from fcsweep.model.observables import CURVES, LABELS, REASONS, RUN_SCALARS, TEXTS
 from fcsweep.results.analyze import ANALYSIS_ERROR_FILE, ANALYSIS_FILE, DATASET_FILE, config_settings, read_analysis
+# the reductions' names stay importable from here (where they were before fcsweep.results.reduce)
 from fcsweep.results.reduce import (FSS_SHUFFLED_VARS, FSS_VARS, LABEL_FLAGS, META, POINT_INPUTS,  # noqa: F401
-                                    REPLICATE_VARS, STATUS_CODES, STATUS_FLAGS, STATUS_WORDS, _fss, _point_labels,
-                                    attrs_of, flag_attrs, reduce_dataset, replicate_error_check)
+                                    REPLICATE_VARS, STATUS_CODES, STATUS_FLAGS, STATUS_WORDS, _fisher_exponents, _fss,
+                                    _kthny_common, _point_labels, attrs_of, flag_attrs, reduce_dataset,
+                                    replicate_error_check)
 
 CORE_DIMS = ("eta", "v0", "N")
 #: Per-run numbers of the dataset.
