@@ -9,7 +9,7 @@ pixel centres (``(c + 1/2, r + 1/2)``), in a field of view that cuts the outer c
 import numpy as np
 from matplotlib.path import Path as MplPath
 
-from fcsweep.analysis.export import cell_contours
+from fcsweep.results.export import cell_contours
 from fcsweep.analysis.shapes import shape_indices
 from fcsweep.model.shape import bounding_radius, project_admissible
 

@@ -15,8 +15,8 @@ from fcsweep.config import parse_config
 
 def build(out: Path) -> Path:
     """Write the sweep into ``out``, analyse and aggregate it; return its config file."""
-    from fcsweep.analysis.aggregate import aggregate_sweep
-    from fcsweep.analysis.pipeline import analyze_sweep
+    from fcsweep.results.aggregate import aggregate_sweep
+    from fcsweep.results.analyze import analyze_sweep
 
     cfg_file = out / "sweep.yaml"
     cfg_file.write_text(YAML.format(out=out / "sweep"))

@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from fcsweep.analysis.aggregate import aggregate_sweep, build_dataset
-from fcsweep.analysis.figures import plot_sweep
-from fcsweep.analysis.pipeline import analyze_run, analyze_sweep, read_analysis
+from fcsweep.results.aggregate import STATUS_FLAGS, aggregate_sweep, build_dataset
+from fcsweep.results.figures import plot_sweep
+from fcsweep.results.analyze import analyze_run, analyze_sweep, read_analysis
 from fcsweep.analysis.phase import PHASE_SOLID, PHASE_UNDETERMINED
 from fcsweep.model.lattice import hexagonal_lattice
 
@@ -122,7 +122,7 @@ def test_analyze_reports_every_run_and_skips_when_up_to_date(sweep):
 
 def test_analysis_pool_gives_the_serial_results_without_oversubscribing(sweep, monkeypatch):
     """workers = 5 on '2 cores': two processes, one freud thread each, same numbers."""
-    import fcsweep.analysis.pipeline as pipeline
+    import fcsweep.results.analyze as pipeline
 
     cfg, runs, _ = sweep
     serial = {r.run_id: read_analysis(cfg.output / "runs" / r.run_id / "analysis.h5")["scalars"] for r in runs[:3]}
@@ -144,7 +144,7 @@ def test_bad_trajectory_is_reported_not_raised(tmp_path, sweep):
     cfg, runs, _ = sweep
     bad = tmp_path / "trajectory.h5"
     bad.write_bytes(b"not hdf5")
-    from fcsweep.analysis.trajectory import TrajectoryError
+    from fcsweep.io.trajectory import TrajectoryError
     with pytest.raises(TrajectoryError, match="unreadable"):
         analyze_run(bad, tmp_path / "analysis.h5")
 
@@ -170,7 +170,7 @@ def test_dataset_round_trip_and_contents(sweep, tmp_path):
     assert ds["q_bin"].attrs["bounds"] == "q_bin_bounds"  # CF bounds carry no units
     failed = dict(eta=runs[3].params["eta"], v0=runs[3].params["v0"])
     assert np.isnan(ds["D_eff"].sel(failed).item())
-    assert ds["status"].sel(failed).item() == 2
+    assert STATUS_FLAGS[ds["status"].sel(failed).item()] == "failed"
     assert ds["phase"].sel(failed).item() == -1
     solid = ds.sel(eta=0.1, v0=0.03).squeeze()
     assert solid["phase"].item() == PHASE_SOLID and solid["psi6"].item() > 0.9
@@ -306,7 +306,7 @@ def test_fisher_exponent_per_point_pools_replicates():
     defects says so."""
     from percolation_lattice import cluster_counts
 
-    from fcsweep.analysis.aggregate import _fisher_exponents
+    from fcsweep.results.reduce import _fisher_exponents
     from fcsweep.analysis.percolation import TAU_2D
 
     c = np.stack([cluster_counts(32, 1000, p=0.5, seed=s) for s in (21, 22)])  # (replicate, size)
@@ -323,7 +323,7 @@ def test_fisher_exponent_per_point_pools_replicates():
 
 
 def test_replicate_error_check_reports_the_median_chi2():
-    from fcsweep.analysis.aggregate import replicate_error_check
+    from fcsweep.results.reduce import replicate_error_check
 
     ds = xr.Dataset({"D_eff_rchi2": (("eta",), [0.8, 1.2, np.nan, 5.0])})
     assert replicate_error_check(ds) == {"D_eff": (1.2, 3)}

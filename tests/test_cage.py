@@ -15,7 +15,7 @@ from fcsweep.analysis.cage import cage_breaking, neighbour_spacing
 from fcsweep.analysis.diffusion import estimate_diffusion, free_diffusion
 from fcsweep.analysis.phase import (PHASE_FLUID, PHASE_SOFT_FLUID, PHASE_SOLID, PHASE_UNDETERMINED,
                                     classify_phase)
-from fcsweep.analysis.pipeline import cage_evidence
+from fcsweep.analysis.phase import cage_evidence
 from fcsweep.analysis.stats import detect_equilibration
 
 V0, DR, BOX = 0.03, 0.01, (50.0, 50.0)

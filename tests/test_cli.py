@@ -45,7 +45,7 @@ def test_demo_runs_into_fcsweep_demo(demo_dir, monkeypatch):
 
 def test_demo_analyze_aggregate_plot(demo_dir, monkeypatch, tmp_path):
     """The README's chain after the demo: analyze, aggregate, plot take the same default."""
-    pytest.importorskip("fcsweep.analysis.pipeline")
+    pytest.importorskip("fcsweep.results.analyze")
     monkeypatch.chdir(demo_dir)
     r = CliRunner().invoke(cli, ["analyze", "--workers", "1"])
     assert r.exit_code == 0, r.output

@@ -17,9 +17,9 @@ from click.testing import CliRunner
 
 from conftest import dense_config
 from fcsweep.analysis import shapes, voronoi
-from fcsweep.analysis.export import (cell_contours, cluster_ids, export_gsd, export_vtk, parse_frames,
+from fcsweep.results.export import (cell_contours, cluster_ids, export_gsd, export_vtk, parse_frames,
                                      periodic_copies)
-from fcsweep.analysis.trajectory import open_trajectory
+from fcsweep.io.trajectory import open_trajectory
 from fcsweep.cli import cli
 from fcsweep.config import load_config
 from fcsweep.model.shape import radius

@@ -210,19 +210,18 @@ def test_bench_range_with_until():
 def test_in_run_check_sees_the_labels_of_the_full_analysis(extended):
     """The check leaves out the curves and |Psi6| for speed; every number a label or a
     ``rel_error`` target can depend on must be the one ``fcsweep analyze`` computes."""
-    from fcsweep.analysis.pipeline import compute_observables, settings_with
-    from fcsweep.analysis.settle import assess_trajectory
-    from fcsweep.analysis.trajectory import open_trajectory
+    from fcsweep.analysis.run_observables import KTHNY_SCALARS
+    from fcsweep.io.trajectory import open_trajectory
+    from fcsweep.results.analyze import settings_with, trajectory_observables
+    from fcsweep.results.settle import assess_trajectory
 
     _, long, _, _, _, _ = extended
     path = long.run_dir(long.runs()[1].run_id) / "trajectory.h5"
     s = settings_with(transient=0.2)
-    full, curves, _ = compute_observables(open_trajectory(path), s)
-    lean, none, _ = compute_observables(open_trajectory(path), s, curves=False, psi6=False)
+    full, curves, _ = trajectory_observables(open_trajectory(path), s)
+    lean, none, _ = trajectory_observables(open_trajectory(path), s, curves=False, psi6=False)
     assert set(curves) >= {"msd", "G6", "Gr"} and not set(none) & {"msd", "G6", "Gr"}
     assert np.isnan(lean["psi6"]) and np.isfinite(full["psi6"])
-    from fcsweep.analysis.pipeline import KTHNY_SCALARS
-
     for k, v in full.items():  # KTHNY comes from the curves, and no run.until target uses it
         if k not in ("psi6", "psi6_err", "kthny_reason") + KTHNY_SCALARS:
             assert lean[k] == v or (isinstance(v, float) and np.isnan(v) and np.isnan(lean[k])), k

@@ -14,7 +14,7 @@ import xarray as xr
 from matplotlib.container import ErrorbarContainer
 from matplotlib.patches import Rectangle
 
-from fcsweep.analysis import figures as plots
+from fcsweep.results import figures as plots
 from fcsweep.model.lattice import hexagonal_lattice
 
 
@@ -382,7 +382,7 @@ def test_importing_the_figures_module_leaves_the_backend_alone():
     import subprocess
     import sys
 
-    code = ("import matplotlib; matplotlib.use('pdf'); import fcsweep.analysis.figures; "
+    code = ("import matplotlib; matplotlib.use('pdf'); import fcsweep.results.figures; "
             "print(matplotlib.get_backend())")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip().lower() == "pdf"
@@ -425,7 +425,7 @@ def test_cluster_colour_bar_only_when_clusters_are_drawn():
 
 
 class _FakeTrajectory:
-    """The parts of :class:`fcsweep.analysis.trajectory.Trajectory` that frames read."""
+    """The parts of :class:`fcsweep.io.trajectory.Trajectory` that frames read."""
 
     def __init__(self, n_frames=3):
         self.pos, self.box = hexagonal_lattice(16)
@@ -441,7 +441,7 @@ class _FakeTrajectory:
 
 
 def test_snapshot_title_has_model_units(tmp_path, monkeypatch):
-    import fcsweep.analysis.trajectory as trajectory
+    import fcsweep.io.trajectory as trajectory
 
     monkeypatch.setattr(trajectory, "open_trajectory", lambda p: _FakeTrajectory())
     title = plots.frames._frame_title(_FakeTrajectory(), 1, np.zeros(16, bool))
@@ -454,7 +454,7 @@ def test_movie_frames_are_whole_macro_blocks(tmp_path, monkeypatch, caplog):
     pytest.importorskip("imageio_ffmpeg")
     import imageio.v2 as imageio
 
-    import fcsweep.analysis.trajectory as trajectory
+    import fcsweep.io.trajectory as trajectory
 
     monkeypatch.setattr(trajectory, "open_trajectory", lambda p: _FakeTrajectory())
     for dpi in (97, 120):  # 120 dpi gave 852 x 683 before

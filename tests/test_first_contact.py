@@ -115,7 +115,7 @@ def test_status_says_which_runs_are_analysed_and_which_analyses_are_stale(done, 
     rows = json.loads(r.output)
     assert [row["analysis"] for row in rows] == ["yes"] * 4
     traj = next(copy.glob("runs/*/trajectory.h5"))
-    from fcsweep.analysis.pipeline import settings_with
+    from fcsweep.results.analyze import settings_with
     from fcsweep.sweep.status import analysis_state
 
     now = settings_with(transient=0.2)

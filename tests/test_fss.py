@@ -165,7 +165,7 @@ def _sweep_dataset(n_v0=2):
 
 
 def test_aggregate_stores_one_collapse_per_v0():
-    from fcsweep.analysis.aggregate import _fss
+    from fcsweep.results.reduce import _fss
 
     ds = _sweep_dataset()
     _fss(ds, n_bootstrap=5)
@@ -183,8 +183,8 @@ def test_collapse_figures_draw_each_size(tmp_path):
     import matplotlib
 
     matplotlib.use("Agg")
-    from fcsweep.analysis.aggregate import _fss
-    from fcsweep.analysis.figures import (FSS_FIGURES, fss_collapse_figure, largest_cluster_unscaled,
+    from fcsweep.results.reduce import _fss
+    from fcsweep.results.figures import (FSS_FIGURES, fss_collapse_figure, largest_cluster_unscaled,
                                           save_figure)
 
     ds = _sweep_dataset()

@@ -116,7 +116,7 @@ def test_cage_relaxing_slower_than_the_persistence_time_is_not_called_fluid():
     from scipy.signal import lfilter
 
     from fcsweep.analysis.cage import cage_breaking
-    from fcsweep.analysis.pipeline import cage_evidence
+    from fcsweep.analysis.phase import cage_evidence
 
     rng = np.random.default_rng(8)
     frames, h, tau_c, sd = 1201, 2.0, 300.0, 0.3
@@ -155,7 +155,7 @@ def test_solid_is_tested_over_the_longest_window():
     demo's eta = 0.1, v0 = 0.02 crystal: (3.7 +- 2.5)e-3 over six 80-unit blocks) while the
     whole window sees the plateau ((0.57 +- 0.32)e-3): the rule tests "solid" on the
     whole window, and with intact cages the label is solid."""
-    from fcsweep.analysis.pipeline import solid_test_estimate
+    from fcsweep.analysis.phase import solid_test_estimate
 
     crystal = {"D_eff": 3.7e-3, "D_eff_err": 2.5e-3, "D_eff_long": -0.73e-3, "D_eff_long_err": 0.22e-3,
                "n_time_blocks": 6.0}

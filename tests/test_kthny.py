@@ -24,7 +24,7 @@ from fcsweep.analysis import kthny, order
 from fcsweep.analysis.cage import neighbour_spacing
 from fcsweep.analysis.phase import (KTHNY_FLAGS, KTHNY_HEXATIC, KTHNY_LIQUID, KTHNY_SOLID, KTHNY_UNDETERMINED,
                                     kthny_name)
-from fcsweep.analysis.pipeline import _frame_mean
+from fcsweep.analysis.run_observables import frame_mean
 
 MAKERS = {
     "crystal 0.1": lambda g: triangular_crystal(64, 0.1, g),
@@ -61,9 +61,9 @@ def _frames(name, frames, seed):
 def _fits_of(curves, use=None):
     r, g6s, dx, grs, cgs, N, box = curves
     use = slice(None) if use is None else use
-    G6, G6e = _frame_mean(g6s[use])
-    Gr, Gre = _frame_mean(grs[use])
-    CG, CGe = _frame_mean(cgs[use])
+    G6, G6e = frame_mean(g6s[use])
+    Gr, Gre = frame_mean(grs[use])
+    CG, CGe = frame_mean(cgs[use])
     return kthny.kthny_fits(r, G6, dx, Gr, G6_err=G6e, Gr_err=Gre, C_G1=CG, C_G1_err=CGe, box=box), N
 
 
@@ -203,7 +203,7 @@ def _exact_slope(n, eta, curves):
     C_G1 of the harmonic crystal (0.150 and 0.501 for eta_G1 = 0.15 and 0.5 at 32 x 32 and
     64 x 64 unweighted, against 0.115 and 0.38 for a fit against ln r)."""
     r, _, dx, _, cgs, _, box = curves
-    _, err = _frame_mean(cgs)
+    _, err = frame_mean(cgs)
     re, C = harmonic_cg1(n, eta, 0.1, r[-1] + 0.05)
     assert np.allclose(re, r)
     r_max = float(np.nanmax(dx))

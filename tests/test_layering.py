@@ -1,5 +1,6 @@
-"""The floors of the house: analysis never imports the sweep runner (nor the CLI), and
-nothing below the CLI imports the CLI."""
+"""The floors of the house: model and io at the bottom, then analysis (arrays only: it opens
+no file), results (the files of analysis), the sweep runner and the CLI on top; nothing
+below the CLI imports the CLI.  Moved modules keep their old import paths (fcsweep._moved)."""
 
 from __future__ import annotations
 
@@ -21,8 +22,33 @@ def _imports(path: Path) -> set[str]:
     return out
 
 
+#: Imports no module under fcsweep/analysis/ may make: file formats, and the layers above it.
+ANALYSIS_FORBIDDEN = ("h5py", "netCDF4", "fcsweep.io", "fcsweep.results", "fcsweep.sweep", "fcsweep.cli")
+#: xarray's file functions (methods or module functions): analysis takes datasets, never files.
+XARRAY_FILE_IO = {"open_dataset", "open_dataarray", "open_mfdataset", "open_zarr", "load_dataset",
+                  "load_dataarray", "to_netcdf", "to_zarr"}
+
+
+def _called_names(path: Path) -> set[str]:
+    out = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Call):
+            f = node.func
+            out.add(f.attr if isinstance(f, ast.Attribute) else getattr(f, "id", ""))
+    return out
+
+
 @pytest.mark.parametrize("path", sorted((PKG / "analysis").rglob("*.py")), ids=lambda p: str(p.relative_to(PKG)))
-def test_analysis_does_not_import_sweep_or_cli(path):
+def test_analysis_takes_arrays_and_opens_no_file(path):
+    bad = {m for m in _imports(path) if m == "fcsweep" or any(m == f or m.startswith(f + ".")
+                                                              for f in ANALYSIS_FORBIDDEN)}
+    assert not bad, f"{path.name} imports {bad}"
+    calls = _called_names(path) & XARRAY_FILE_IO
+    assert not calls, f"{path.name} calls {calls}"
+
+
+@pytest.mark.parametrize("path", sorted((PKG / "results").rglob("*.py")), ids=lambda p: str(p.relative_to(PKG)))
+def test_results_sit_below_the_sweep_runner_and_the_cli(path):
     bad = {m for m in _imports(path) if m.startswith(("fcsweep.sweep", "fcsweep.cli"))}
     assert not bad, f"{path.name} imports {bad}"
 
@@ -35,7 +61,8 @@ def test_nothing_below_the_cli_imports_it(path):
 
 @pytest.mark.parametrize("path", sorted((PKG / "io").glob("*.py")), ids=lambda p: p.name)
 def test_io_imports_nothing_above_it(path):
-    bad = {m for m in _imports(path) if m.startswith("fcsweep.") and not m.startswith("fcsweep.io")}
+    """io and model are the bottom floor: io may read model (the observable table), nothing else."""
+    bad = {m for m in _imports(path) if m.startswith("fcsweep.") and not m.startswith(("fcsweep.io", "fcsweep.model"))}
     assert not bad, f"{path.name} imports {bad}"
 
 
@@ -58,3 +85,33 @@ def test_measure_sits_with_analysis(path):
     allowed = ("fcsweep.measure", "fcsweep.analysis", "fcsweep.model", "fcsweep.io")
     bad = {m for m in _imports(path) if m.startswith("fcsweep.") and not m.startswith(allowed)}
     assert not bad, f"{path.name} imports {bad}"
+
+
+@pytest.mark.parametrize("old", sorted(__import__("fcsweep._moved", fromlist=["MOVED"]).MOVED))
+def test_moved_modules_keep_their_old_names(old):
+    """``import <old>`` gives the new module itself: the same functions, classes and globals."""
+    import importlib
+
+    from fcsweep._moved import MOVED
+
+    new = importlib.import_module(MOVED[old])
+    assert importlib.import_module(old) is new
+    assert new.__spec__.name == MOVED[old]  # the alias did not take over the module's spec
+    public = [n for n in dir(new) if not n.startswith("_")]
+    assert public and all(getattr(importlib.import_module(old), n) is getattr(new, n) for n in public)
+
+
+def test_moved_submodules_and_names():
+    """Submodules of a moved package and the names users import resolve to the new objects."""
+    import fcsweep.analysis.figures.common as old_common
+    import fcsweep.results.analyze as analyze
+    import fcsweep.results.figures.common as common
+    from fcsweep.results.analyze import analyze_run
+    from fcsweep.io.trajectory import open_trajectory
+    from fcsweep.io.trajectory import open_trajectory as new_open
+
+    assert old_common is common and analyze_run is analyze.analyze_run and open_trajectory is new_open
+    from fcsweep.model.observables import OBSERVABLES
+    from fcsweep.model.observables import OBSERVABLES as table
+
+    assert OBSERVABLES is table

@@ -22,9 +22,9 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from fcsweep.analysis import pipeline
-from fcsweep.analysis.aggregate import _RUN_STATUS, build_dataset
-from fcsweep.analysis.pipeline import analyze_run, analyze_sweep
+from fcsweep.results import analyze as pipeline
+from fcsweep.results.aggregate import STATUS_FLAGS, build_dataset
+from fcsweep.results.analyze import analyze_run, analyze_sweep
 from fcsweep.cli import cli
 from fcsweep.config import load_config
 from fcsweep.io import schema
@@ -172,7 +172,7 @@ def test_every_command_names_the_same_state_and_the_dry_run_predicts_simulate(ba
     else:
         assert res[1] == "skipped" and res[2].startswith("not run" if not rd.exists() else f"run {state}"), res
     code = int(build_dataset(cfg)["status"].values.ravel()[0])
-    assert code == (1 if state == "done" else 5 if not rd.exists() else _RUN_STATUS.get(state, 5))
+    assert STATUS_FLAGS[code] == ("not_analysed" if state == "done" else state)  # the state `fcsweep status` shows
     monkeypatch.undo()
 
     (o,) = run_sweep(cfg, [spec])

@@ -20,7 +20,7 @@ import h5py
 import numpy as np
 import pytest
 
-from fcsweep.analysis.trajectory import TrajectoryError, open_trajectory
+from fcsweep.io.trajectory import TrajectoryError, open_trajectory
 from fcsweep.io import schema
 from fcsweep.io.rundir import RunDirectory
 
@@ -132,7 +132,7 @@ def test_live_reader_limits_and_reports(tmp_path, monkeypatch):
     with pytest.raises(TrajectoryError, match="out of range for 5 frames"):
         traj.read("position", [5])
     whole = traj.read("position")
-    monkeypatch.setattr("fcsweep.analysis.trajectory.LIVE_PIECE_BYTES", 1)
+    monkeypatch.setattr("fcsweep.io.trajectory.LIVE_PIECE_BYTES", 1)
     assert np.array_equal(traj.read("position"), whole)
     assert np.array_equal(traj.read("position", [4, 0, 2, 0]), whole[[4, 0, 2, 0]])
     with h5py.File(partial, "r") as f:  # the file itself holds 7: a plain reader would see them

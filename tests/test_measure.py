@@ -13,7 +13,7 @@ from measure_render import exact_q, jittered_cells, render, render_overlapping
 from PIL import Image
 
 import fcsweep
-from fcsweep.analysis.export import cell_contours
+from fcsweep.results.export import cell_contours
 from fcsweep.analysis.voronoi_open import open_voronoi
 from fcsweep.cli import cli
 from fcsweep.measure import MeasureInputError, measure, read_seg_npy
@@ -437,8 +437,8 @@ def test_measured_movies_drawn_beside_simulated_points(tmp_path, monkeypatch):
     matplotlib.use("Agg")
     from test_figures import synthetic_dataset, with_statistics
 
-    from fcsweep.analysis.figures.common import save_figure
-    from fcsweep.analysis.figures.measured import measured_plane
+    from fcsweep.results.figures.common import save_figure
+    from fcsweep.results.figures.measured import measured_plane
 
     CliRunner().invoke(cli, ["measure", "-o", str(tmp_path)])
     with xr.open_dataset(tmp_path / "measure.nc") as m:
@@ -453,7 +453,7 @@ def test_measured_movies_drawn_beside_simulated_points(tmp_path, monkeypatch):
     assert point.get_ydata()[0] == pytest.approx(float(m.rho_d_movie))
     assert [p.suffix for p in save_figure(fig, tmp_path / "plane")] == [".png", ".pdf"]
     # `fcsweep plot --measured DIR` adds the figure to the sweep's
-    from fcsweep.analysis import figures
+    from fcsweep.results import figures
 
     monkeypatch.setattr(figures, "sweep_dataset", lambda cfg: sim)
     monkeypatch.setattr(figures, "plot_dataset", lambda ds, outdir: [])

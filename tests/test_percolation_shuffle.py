@@ -127,7 +127,7 @@ def test_aggregate_stores_the_shuffled_collapse_beside_the_real_one():
     own within 3e-3 (the error of noiseless data, test_fss)."""
     import xarray as xr
 
-    from fcsweep.analysis.aggregate import FSS_SHUFFLED_VARS, FSS_VARS, _fss
+    from fcsweep.results.reduce import FSS_SHUFFLED_VARS, FSS_VARS, _fss
 
     sizes = np.array([256, 1024, 4096])
     rho = np.broadcast_to(np.linspace(0.30, 0.60, 31)[:, None, None], (31, 1, 3))

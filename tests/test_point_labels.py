@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from fcsweep.analysis.aggregate import POINT_INPUTS, _point_labels
+from fcsweep.results.reduce import POINT_INPUTS, _point_labels
 from fcsweep.analysis.cage import broken_probability
 from fcsweep.analysis.phase import (PHASE_FLUID, PHASE_SOLID, PHASE_UNDETERMINED, classify_percolation,
                                     phase_evidence, phase_label)
@@ -135,7 +135,7 @@ def test_without_initial_the_point_labels_keep_their_dimensions():
 def test_the_config_analysis_section_reaches_the_analysis_settings():
     """analysis.label_confidence / percolation_threshold are validated, stored with the
     config, and become the settings analyze, aggregate and the run.until check use."""
-    from fcsweep.analysis.pipeline import DEFAULT_SETTINGS, config_settings, settings_with
+    from fcsweep.results.analyze import DEFAULT_SETTINGS, config_settings, settings_with
     from fcsweep.config import ConfigError, json_schema, parse_config
 
     text = ("output: out\ngrid: {eta: [0.1]}\nmodel: {N: 16, v0: 0.01}\nrun: {steps: 100, sample_every: 10, "

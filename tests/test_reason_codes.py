@@ -208,8 +208,8 @@ def test_a_point_without_runs_and_the_common_reason_of_several():
 # ------------------------------------------------------------------ stored: analysis.h5 and the dataset
 
 def test_codes_are_stored_per_run_and_point_as_cf_flags(sweep):  # noqa: F811
-    from fcsweep.analysis.aggregate import build_dataset
-    from fcsweep.analysis.pipeline import read_analysis
+    from fcsweep.results.aggregate import build_dataset
+    from fcsweep.results.analyze import read_analysis
 
     cfg_file, sweep, _ = sweep
     h5s = sorted(sweep.glob("runs/*/analysis.h5"))
@@ -271,7 +271,7 @@ def test_the_phase_diagram_takes_its_words_from_the_code_and_the_text_only_witho
 def test_start_and_point_reason_codes_of_two_starts():
     from test_point_labels import _two_start_dataset
 
-    from fcsweep.analysis.aggregate import _point_labels
+    from fcsweep.results.aggregate import _point_labels
 
     ds = _two_start_dataset()
     _point_labels(ds, 0.95, 0.5)
@@ -287,7 +287,7 @@ def test_start_and_point_reason_codes_of_two_starts():
 
 
 def test_the_figure_words_over_starts_and_replicates():
-    from fcsweep.analysis.figures.diagrams import _point_reasons
+    from fcsweep.results.figures.diagrams import _point_reasons
     from fcsweep.analysis.phase import PHASE_FLAGS, flag_attrs
 
     dims = ("eta", "v0", "initial", "replicate")

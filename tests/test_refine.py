@@ -11,9 +11,9 @@ import pytest
 import xarray as xr
 from click.testing import CliRunner
 
-from fcsweep.analysis.aggregate import aggregate_sweep
+from fcsweep.results.aggregate import STATUS_FLAGS, aggregate_sweep
 from fcsweep.analysis.phase import PERCOLATION_FLAGS, PHASE_FLAGS
-from fcsweep.analysis.pipeline import analyze_sweep
+from fcsweep.results.analyze import analyze_sweep
 from fcsweep.cli import cli
 from fcsweep.config import ConfigError, parse_config
 from fcsweep.io.refinement import append_round, read_points
@@ -95,8 +95,8 @@ def test_refined_points_are_runs_and_aggregate_holds_a_non_product_grid(syntheti
         new = ds.sel(eta=0.055, replicate=0, N=36)
         ran = new.sel(v0=props[0].point["v0"])
         other = new.sel(v0=[v for v in (0.03, 0.06) if v != props[0].point["v0"]][0])
-        assert int(ran["status"]) == 0 and np.isfinite(float(ran["D_eff"]))
-        assert int(other["status"]) == 5 and np.isnan(float(other["D_eff"]))  # nothing ran there
+        assert STATUS_FLAGS[int(ran["status"])] == "analysed" and np.isfinite(float(ran["D_eff"]))
+        assert STATUS_FLAGS[int(other["status"])] == "missing" and np.isnan(float(other["D_eff"]))  # nothing ran there
         assert ds.attrs["total_cell_steps"] == 5 * 72000  # summed over the 5 runs' status files
     assert read_points(cfg.output) == [props[0].point]
 

@@ -98,7 +98,7 @@ def test_analyze_force_on_a_full_disk_keeps_every_analysis(sweep):
 
 
 def test_analyze_goes_on_after_one_unwritable_run_and_counts_it(sweep, monkeypatch):
-    import fcsweep.analysis.pipeline as pipeline
+    import fcsweep.results.analyze as pipeline
 
     cfg, out, before = sweep
     real = pipeline._write_h5
@@ -140,7 +140,7 @@ def test_read_only_sweep_is_refused_before_any_work(sweep, command):
 
 @pytest.mark.parametrize("exc,code", [(KeyboardInterrupt, 130), (failures.Terminated, 143)])
 def test_signal_during_a_write_exits_128_plus_n_and_keeps_the_old_file(sweep, monkeypatch, exc, code):
-    import fcsweep.analysis.pipeline as pipeline
+    import fcsweep.results.analyze as pipeline
 
     cfg, out, before = sweep
     real = pipeline._write_h5

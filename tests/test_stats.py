@@ -84,7 +84,7 @@ def test_equilibration_cut_of_d_eff_keeps_half_the_frames():
     middle of the frames after the transient: a run of 2 x 8/Dr after the transient keeps a
     window of 8/Dr even when a coarse series' start lands a few frames beyond its half
     (the N = 1024 crystal at eta = 0.01, v0 = 0.01 read 792 of the 800 time units it needs)."""
-    from fcsweep.analysis.pipeline import equilibrated_frames
+    from fcsweep.analysis.run_observables import equilibrated_frames
 
     frames = np.arange(200, 1001)  # 801 frames after the transient, 2 time units apart
     assert equilibrated_frames(frames, [620, 300]).tolist() == list(range(600, 1001))

@@ -10,8 +10,8 @@ from pathlib import Path
 import pytest
 
 from fcsweep.config import MODEL_DEFAULTS, ConfigError, json_schema, parse_config
-from fcsweep.io.observables import CURVES, OBSERVABLES, RUN_SCALARS, UNTIL_OBSERVABLES
-from fcsweep.io.observables import markdown_table as observables_table
+from fcsweep.model.observables import CURVES, OBSERVABLES, RUN_SCALARS, UNTIL_OBSERVABLES
+from fcsweep.model.observables import markdown_table as observables_table
 from fcsweep.model.parameters import DEFAULTS, PARAMETERS
 from fcsweep.model.parameters import markdown_table as parameters_table
 from fcsweep.simulation import SimParams
@@ -71,8 +71,8 @@ def test_each_float_range_is_enforced_by_config_schema_and_engine(name, tmp_path
 
 
 def test_observables_table_covers_pipeline_aggregate_and_until():
-    from fcsweep.analysis.aggregate import META, SCALAR_VARS
-    from fcsweep.analysis.pipeline import SCALARS
+    from fcsweep.results.aggregate import META, SCALAR_VARS
+    from fcsweep.results.analyze import SCALARS
 
     assert set(SCALARS) == set(RUN_SCALARS) | {n for n, o in OBSERVABLES.items() if o.kind == "label"}
     assert SCALAR_VARS == RUN_SCALARS
@@ -95,3 +95,31 @@ def test_unknown_until_observable_names_the_allowed_ones(tmp_path):
         parse_config(text)
     for name in UNTIL_OBSERVABLES:
         assert name in str(exc.value)
+
+
+def test_status_flags_come_from_the_run_states_and_the_schema_lists_them():
+    """Every run state of io.schema has its own flag (interrupted and corrupt too), each flag
+    is one results_schema.md names with its code, and nothing else is a flag."""
+    from fcsweep.io.schema import DONE, STATUSES
+    from fcsweep.results.aggregate import STATUS_FLAGS
+
+    words = set(STATUS_FLAGS.values())
+    assert set(STATUSES) - {DONE} <= words and DONE not in words
+    assert words - set(STATUSES) == {"analysed", "not_analysed", "analysis_failed", "missing"}
+    text = (ROOT / "results_schema.md").read_text()
+    listed = re.search(r"`status` (0 analysed.*?):", text, re.S).group(1)
+    assert listed == ", ".join(f"{c} {w}" for c, w in sorted(STATUS_FLAGS.items()))
+
+
+def test_fit_groups_of_the_table():
+    """The KTHNY fit keys and the finite-size collapse variables are groups of the table,
+    each a value and its error (and the collapse's quality)."""
+    from fcsweep.model.observables import KTHNY_FITS, group
+
+    assert KTHNY_FITS and all(OBSERVABLES[n].kind == "run" for n in KTHNY_FITS)
+    assert {n for n in KTHNY_FITS if not n.endswith("_err")} == {n[:-4] for n in KTHNY_FITS if n.endswith("_err")}
+    for g in ("fss", "fss_shuffled"):
+        names = group(g)
+        assert f"{g}_quality" in names and all(OBSERVABLES[n].kind == "dataset" for n in names)
+        values = {n for n in names if not n.endswith(("_err", "_quality"))}
+        assert values == {n[:-4] for n in names if n.endswith("_err")} == {f"{g}_rho_c", f"{g}_nu", f"{g}_beta"}

@@ -4,7 +4,7 @@
 
     python docs/repro/paper_fig4e.py CORRELATIONS.nc PERCOLATION.nc FIGURE.png
 
-Labels are the datasets' own (fcsweep.analysis.figures.summary_labels: KTHNY where decided,
+Labels are the datasets' own (fcsweep.results.figures.summary_labels: KTHNY where decided,
 else the phase label); grid points neither scan visited are left empty."""
 
 import sys
@@ -12,7 +12,7 @@ import sys
 import numpy as np
 import xarray as xr
 
-from fcsweep.analysis.figures import summary_diagram, summary_labels
+from fcsweep.results.figures import summary_diagram, summary_labels
 
 LABELS = ("kthny", "phase")
 KEEP = LABELS + ("run_id", "t_end")

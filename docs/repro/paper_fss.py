@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from fcsweep.analysis.figures import fss_collapse_figure, largest_cluster_unscaled
+from fcsweep.results.figures import fss_collapse_figure, largest_cluster_unscaled
 from fcsweep.analysis.fss import BETA_2D, NU_2D, fss_collapse
 
 KEEP = ("rho_d_rmean", "largest_cluster_fraction_rmean", "largest_cluster_fraction_rmean_err",

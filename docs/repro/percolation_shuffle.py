@@ -22,7 +22,7 @@ import numpy as np
 import xarray as xr
 
 from fcsweep.analysis.fss import fss_collapse
-from fcsweep.analysis.pipeline import DATASET_FILE
+from fcsweep.results.analyze import DATASET_FILE
 
 STATS = ("largest_cluster_fraction", "largest_cluster_fraction_shuffled")
 KEEP = ("rho_d_rmean",) + tuple(f"{s}_rmean{e}" for s in STATS for e in ("", "_err"))

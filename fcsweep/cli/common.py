@@ -37,7 +37,7 @@ def load(config: str | None, output: str | None = None, *, to_run: bool = False)
 def status_rows(cfg, *, verify: bool = False):
     """:func:`fcsweep.sweep.status.collect_status` with the analysis settings that
     `fcsweep analyze` would use now, so that analyses made with others read ``stale``."""
-    from fcsweep.analysis.pipeline import config_settings, settings_with
+    from fcsweep.results.analyze import config_settings, settings_with
     from fcsweep.sweep.status import collect_status
 
     settings = settings_with(config_settings(cfg), transient=cfg.run.transient)
@@ -113,7 +113,7 @@ def headless() -> None:
 
 def trajectory_or_exit(cfg, run, out, config, output) -> Path:
     """The finished trajectory of run ``run``; exit 2 for an unknown run, 1 if not done."""
-    from fcsweep.analysis.results import run_trajectory
+    from fcsweep.results.locate import run_trajectory
 
     try:
         traj = run_trajectory(cfg, run)

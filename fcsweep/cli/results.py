@@ -52,7 +52,7 @@ def status(config, output, as_json, verify):
 @click.option("--force", is_flag=True, help="Recompute existing analysis files.")
 def analyze(config, output, workers, force):
     """Analyse every finished run (writes analysis.h5 beside each trajectory)."""
-    from fcsweep.analysis.pipeline import UNWRITTEN, analyze_sweep
+    from fcsweep.results.analyze import UNWRITTEN, analyze_sweep
     from fcsweep.io.failures import probe_writable, results_command
     from fcsweep.sweep.status import summary_line
 
@@ -88,7 +88,7 @@ def aggregate(config, output):
     """Collect per-run analyses into <output>/phase_diagram.nc."""
     import xarray as xr
 
-    from fcsweep.analysis.aggregate import aggregate_sweep, point_summaries, replicate_error_check, unanalysed_runs
+    from fcsweep.results.aggregate import aggregate_sweep, point_summaries, replicate_error_check, unanalysed_runs
     from fcsweep.io.failures import probe_writable, results_command, signals_held
 
     cfg = load(config, output)
@@ -126,8 +126,8 @@ def aggregate(config, output):
 def plot(config, output, run, frame, outdir, measured):
     """Figures of the sweep (phase diagram and companions) or a snapshot of one run."""
     headless()
-    from fcsweep.analysis.figures import NothingToPlot, plot_sweep
-    from fcsweep.analysis.pipeline import DATASET_FILE
+    from fcsweep.results.figures import NothingToPlot, plot_sweep
+    from fcsweep.results.analyze import DATASET_FILE
     from fcsweep.io.failures import results_command
 
     missing = [m for m in measured if not (Path(m).is_file() or (Path(m) / "measure.nc").is_file())]
@@ -170,7 +170,7 @@ def movie(run, config, output, fps, every, dpi, out_file):
     path of a trajectory.h5.  Needs the `movie` extra: pip install 'fcsweep[movie]'.
     """
     headless()
-    from fcsweep.analysis.figures import movie_run
+    from fcsweep.results.figures import movie_run
     from fcsweep.io.failures import results_command
 
     if run.endswith(".h5") and Path(run).is_file():
@@ -212,8 +212,8 @@ def export(run, config, output, fmt, frames, out_path, unwrapped, polygons, imag
     RUN is a run id or index of the sweep CONFIG (default: the built-in demo), or the
     path of a trajectory.h5.  The run directory is only read.
     """
-    from fcsweep.analysis.export import export_gsd, export_vtk
-    from fcsweep.analysis.trajectory import TrajectoryError
+    from fcsweep.results.export import export_gsd, export_vtk
+    from fcsweep.io.trajectory import TrajectoryError
     from fcsweep.io.failures import results_command
 
     if run.endswith(".h5") and Path(run).is_file():
@@ -262,9 +262,9 @@ def refine(config, output, rounds, max_points, workers, add_only, quiet):
     run indices printed, for a job array to compute.
     """
     cfg = load(config, output, to_run=True)
-    from fcsweep.analysis.aggregate import aggregate_sweep
+    from fcsweep.results.aggregate import aggregate_sweep
     from fcsweep.analysis.phase import PERCOLATION_FLAGS, PHASE_FLAGS
-    from fcsweep.analysis.pipeline import analyze_sweep
+    from fcsweep.results.analyze import analyze_sweep
     from fcsweep.sweep.options import SweepOptions
     from fcsweep.sweep.refine_loop import refine_loop
 

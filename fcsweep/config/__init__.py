@@ -57,7 +57,7 @@ from fcsweep.config.settings import (DEFAULT_FIELDS, DEFAULT_TRANSIENT, FIELDS, 
                                      RunSpec, StoreSettings, SweepConfig, UntilSettings, run_id_of, seed_of)
 from fcsweep.config.validate import builtin_demo_path, load_config, parse_config
 from fcsweep.config.yaml12 import MAX_CONFIG_BYTES, _UniqueKeyLoader
-from fcsweep.io.observables import UNTIL_OBSERVABLES
+from fcsweep.model.observables import UNTIL_OBSERVABLES
 
 __all__ = [
     "ConfigError",

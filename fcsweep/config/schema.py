@@ -7,7 +7,7 @@ from typing import Any
 from fcsweep.config.limits import MAX_RUNS, MAX_STEPS
 from fcsweep.config.params import _allowed
 from fcsweep.config.settings import COMPRESSIONS, FIELDS, MODEL_DEFAULTS
-from fcsweep.io.observables import UNTIL_OBSERVABLES
+from fcsweep.model.observables import UNTIL_OBSERVABLES
 from fcsweep.model.parameters import INT_PARAMS, PARAMETERS, STR_PARAMS
 
 

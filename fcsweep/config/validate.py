@@ -19,7 +19,7 @@ from fcsweep.config.settings import (ANALYSIS_KEYS, COMPRESSIONS, DEFAULT_FIELDS
                                      LABEL_CONFIDENCE, MODEL_DEFAULTS, OUTPUT_KEYS, PERCOLATION_THRESHOLD, RANGE_KEYS,
                                      RUN_KEYS, TOP_KEYS, UNTIL_CONFIDENCE, UNTIL_KEYS, AnalysisSettings, RunSettings,
                                      StoreSettings, SweepConfig, UntilSettings)
-from fcsweep.io.observables import UNTIL_OBSERVABLES
+from fcsweep.model.observables import UNTIL_OBSERVABLES
 from fcsweep.config.yaml12 import MAX_CONFIG_BYTES, MAX_NESTING, _check_structure, _read_text, _UniqueKeyLoader
 from fcsweep.model.parameters import INT_PARAMS, STR_PARAMS
 

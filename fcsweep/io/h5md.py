@@ -163,78 +163,91 @@ def create_trajectory(
     The file uses the HDF5 1.8 format (``libver="v108"``), whose object headers carry
     checksums too.
     """
-    comp = None if compression == "none" else compression
-    copts: dict[str, Any] = {"fletcher32": True}
-    if comp == "gzip":
-        copts.update(compression="gzip", compression_opts=int(compression_level), shuffle=True)
-    elif comp == "lzf":
-        copts.update(compression="lzf", shuffle=True)
+    copts = _storage_options(compression, compression_level)
     with open_h5(path, "w") as f:
-        h5md = f.create_group("h5md")
-        h5md.attrs["version"] = np.array(H5MD_VERSION, dtype=np.int32)
-        creator = h5md.create_group("creator")
-        _vlen_str(creator.attrs, "name", "fcsweep")
-        _vlen_str(creator.attrs, "version", str(creator_version))
-        author = h5md.create_group("author")
-        try:
-            user = getpass.getuser()
-        except Exception:  # noqa: BLE001 - no user name in some batch environments
-            user = "fcsweep"
-        _vlen_str(author.attrs, "name", user)
-        units = h5md.create_group("modules").create_group("units")
-        units.attrs["version"] = np.array([1, 0], dtype=np.int32)
-        _vlen_str(units.attrs, "system", UNIT_SYSTEM)
-
+        _write_header(f, creator_version)
         cells = f.require_group(PARTICLES)
-        boxg = cells.create_group("box")
-        boxg.attrs["dimension"] = np.int32(2)
-        _vlen_str(boxg.attrs, "boundary", ["periodic", "periodic"])
-        edges = boxg.create_dataset("edges", data=np.asarray(box, dtype=np.float64), fletcher32=True)
-        _vlen_str(edges.attrs, "unit", LENGTH_UNIT)
-
+        _write_box(cells, box)
         clock: dict[str, h5py.Dataset] = {}
-
-        def series(group: h5py.Group, value_shape, dtype, unit: str | None, description: str):
-            frame_bytes = int(np.prod(value_shape, dtype=np.int64)) * np.dtype(dtype).itemsize
-            cap = max(1, (4 << 20) // max(frame_bytes, 1))
-            chunk_t = int(min(frames_per_chunk, cap)) if frames_per_chunk else int(max(1, min(256, cap // 16)))
-            if not clock:
-                clock["step"] = group.create_dataset(
-                    "step", shape=(0,), maxshape=(None,), dtype=np.int64, chunks=(1024,), fletcher32=True)
-                clock["time"] = group.create_dataset(
-                    "time", shape=(0,), maxshape=(None,), dtype=np.float64, chunks=(1024,), fletcher32=True)
-                _vlen_str(clock["time"].attrs, "unit", TIME_UNIT)
-                clock["time"].attrs["dt"] = float(dt)
-            else:  # H5MD: series sampled together hard-link step and time
-                group["step"] = clock["step"]
-                group["time"] = clock["time"]
-            value = group.create_dataset(
-                "value",
-                shape=(0, *value_shape),
-                maxshape=(None, *value_shape),
-                dtype=dtype,
-                chunks=(max(1, chunk_t), *value_shape),
-                **copts,
-            )
-            if unit is not None:
-                _vlen_str(value.attrs, "unit", unit)
-            _vlen_str(value.attrs, "description", description)
-
         for name in sorted(fields, key=lambda n: n != "position"):  # position first: owns step/time
             dtype, _, unit, desc = FIELD_LAYOUT[name]
-            series(cells.create_group(name), _trailing(name, n_cells, modes_width), dtype, unit, desc)
-        obs = f.require_group(OBSERVABLES)
-        series(
-            obs.create_group("projections"),
-            (),
-            "int64",
-            None,
-            "cumulative number of shape projections back into the admissible set",
-        )
+            _create_series(cells.create_group(name), clock, _trailing(name, n_cells, modes_width), dtype, unit, desc,
+                           dt=dt, frames_per_chunk=frames_per_chunk, copts=copts)
+        _create_series(f.require_group(OBSERVABLES).create_group("projections"), clock, (), "int64", None,
+                       "cumulative number of shape projections back into the admissible set",
+                       dt=dt, frames_per_chunk=frames_per_chunk, copts=copts)
         par = f.require_group(PARAMETERS)
         for k, v in parameters.items():
             par.attrs[k] = _attr_value(v)
     fsync_path(path)
+
+
+def _storage_options(compression: str, level: int) -> dict[str, Any]:
+    """h5py dataset options of the ``value`` series: Fletcher-32 and the compression."""
+    comp = None if compression == "none" else compression
+    copts: dict[str, Any] = {"fletcher32": True}
+    if comp == "gzip":
+        copts.update(compression="gzip", compression_opts=int(level), shuffle=True)
+    elif comp == "lzf":
+        copts.update(compression="lzf", shuffle=True)
+    return copts
+
+
+def _write_header(f: h5py.File, creator_version: str) -> None:
+    """The ``/h5md`` group: version, creator, author and the units module."""
+    h5md = f.create_group("h5md")
+    h5md.attrs["version"] = np.array(H5MD_VERSION, dtype=np.int32)
+    creator = h5md.create_group("creator")
+    _vlen_str(creator.attrs, "name", "fcsweep")
+    _vlen_str(creator.attrs, "version", str(creator_version))
+    author = h5md.create_group("author")
+    try:
+        user = getpass.getuser()
+    except Exception:  # noqa: BLE001 - no user name in some batch environments
+        user = "fcsweep"
+    _vlen_str(author.attrs, "name", user)
+    units = h5md.create_group("modules").create_group("units")
+    units.attrs["version"] = np.array([1, 0], dtype=np.int32)
+    _vlen_str(units.attrs, "system", UNIT_SYSTEM)
+
+
+def _write_box(cells: h5py.Group, box: Sequence[float]) -> None:
+    """The periodic box of the particle group: ``box/edges`` (Lx, Ly)."""
+    boxg = cells.create_group("box")
+    boxg.attrs["dimension"] = np.int32(2)
+    _vlen_str(boxg.attrs, "boundary", ["periodic", "periodic"])
+    edges = boxg.create_dataset("edges", data=np.asarray(box, dtype=np.float64), fletcher32=True)
+    _vlen_str(edges.attrs, "unit", LENGTH_UNIT)
+
+
+def _create_series(group: h5py.Group, clock: dict, value_shape, dtype, unit: str | None, description: str, *,
+                   dt: float, frames_per_chunk: int | None, copts: dict) -> None:
+    """One empty H5MD time series in ``group``: the first creates ``step`` and ``time``
+    (kept in ``clock``), the later ones hard-link them (series sampled together)."""
+    frame_bytes = int(np.prod(value_shape, dtype=np.int64)) * np.dtype(dtype).itemsize
+    cap = max(1, (4 << 20) // max(frame_bytes, 1))
+    chunk_t = int(min(frames_per_chunk, cap)) if frames_per_chunk else int(max(1, min(256, cap // 16)))
+    if not clock:
+        clock["step"] = group.create_dataset(
+            "step", shape=(0,), maxshape=(None,), dtype=np.int64, chunks=(1024,), fletcher32=True)
+        clock["time"] = group.create_dataset(
+            "time", shape=(0,), maxshape=(None,), dtype=np.float64, chunks=(1024,), fletcher32=True)
+        _vlen_str(clock["time"].attrs, "unit", TIME_UNIT)
+        clock["time"].attrs["dt"] = float(dt)
+    else:  # H5MD: series sampled together hard-link step and time
+        group["step"] = clock["step"]
+        group["time"] = clock["time"]
+    value = group.create_dataset(
+        "value",
+        shape=(0, *value_shape),
+        maxshape=(None, *value_shape),
+        dtype=dtype,
+        chunks=(max(1, chunk_t), *value_shape),
+        **copts,
+    )
+    if unit is not None:
+        _vlen_str(value.attrs, "unit", unit)
+    _vlen_str(value.attrs, "description", description)
 
 
 def _datasets(f: h5py.File) -> list[h5py.Dataset]:

@@ -11,7 +11,7 @@ LOCK = "run.lock"
 ANALYSIS = "analysis.h5"
 #: Attribute of ``analysis.h5`` holding the analysis settings it was made with (JSON).
 ANALYSIS_SETTINGS_ATTR = "settings_json"
-#: Written by a failed analysis (``fcsweep.analysis.pipeline.ANALYSIS_ERROR_FILE``).
+#: Written by a failed analysis (``fcsweep.results.analyze.ANALYSIS_ERROR_FILE``).
 ANALYSIS_ERROR = "analysis_error.txt"
 #: File names inside ``<output>/``: the aggregated dataset and the points ``fcsweep refine`` added.
 DATASET = "phase_diagram.nc"

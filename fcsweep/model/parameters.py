@@ -4,7 +4,7 @@ Every parameter that determines a run is one :class:`Parameter` row of :data:`PA
 its type, default, allowed range, units and names.  From this table come the config
 defaults and range checks (:mod:`fcsweep.config`), the defaults and checks of
 :class:`fcsweep.simulation.SimParams`, the NetCDF attributes of swept coordinates
-(:mod:`fcsweep.analysis.aggregate`), the JSON Schema editors read (``fcsweep schema``)
+(:mod:`fcsweep.results.aggregate`), the JSON Schema editors read (``fcsweep schema``)
 and the parameter table of configs/README.md (:func:`markdown_table`, checked by the
 tests).  What involves several parameters at once (N = n*n with n even, K > 2M, the
 tension limit of dt, the step bounds of v0*dt and Dr*dt) is checked where it is computed

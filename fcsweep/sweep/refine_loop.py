@@ -5,8 +5,8 @@ analyses and aggregates the sweep, reads the point labels of ``phase_diagram.nc`
 records the points :func:`fcsweep.sweep.refine.propose_points` proposes in
 ``<output>/refinement.json``.  The sweep layer sits below the analysis, so the analysis
 step and the label names come in as arguments: the command line passes
-:func:`fcsweep.analysis.pipeline.analyze_sweep` followed by
-:func:`fcsweep.analysis.aggregate.aggregate_sweep`, and the flag names of
+:func:`fcsweep.results.analyze.analyze_sweep` followed by
+:func:`fcsweep.results.aggregate.aggregate_sweep`, and the flag names of
 :mod:`fcsweep.analysis.phase`.
 """
 

@@ -14,7 +14,7 @@ computing run, in their order, to :class:`fcsweep.sweep.writer.RunWriter`):
    replaced atomically.  The HDF5 file is therefore closed almost all the time.
 4. With ``run.until``, at every check step (a multiple of ``until.check_every`` past
    ``until.min_steps``, and at the cap) right after the checkpoint, the run analyses the
-   frames of its partial trajectory (:func:`fcsweep.analysis.settle.assess_trajectory`,
+   frames of its partial trajectory (:func:`fcsweep.results.settle.assess_trajectory`,
    the estimators of ``fcsweep analyze``) and stops when every target is met.  The
    verdict is a function of the stored frames only; a run resumed at a check step checks
    again before going on, so a killed run stops at the same step with the same bits.

@@ -180,7 +180,7 @@ def _assess(partial: Path, cfg: SweepConfig):
     """Verdict of the ``run.until`` check on the frames of ``partial``.  freud runs on one
     thread: its parallel reductions could differ in the last bits between thread counts,
     and the verdict must not depend on the machine a resumed run lands on."""
-    from fcsweep.analysis.settle import assess_trajectory
+    from fcsweep.results.settle import assess_trajectory
 
     until = cfg.run.until
     return assess_trajectory(partial, transient=cfg.run.transient, confidence=until.confidence,

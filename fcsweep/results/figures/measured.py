@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fcsweep.analysis.figures.common import (COLUMN, PHASE_COLORS, _axes, _err, _phase_words, _plane, _styled)
+from fcsweep.results.figures.common import (COLUMN, PHASE_COLORS, _axes, _err, _phase_words, _plane, _styled)
 from fcsweep.analysis.phase import RHO_D_PERCOLATION
 from fcsweep.model.shape import Q_STAR
 

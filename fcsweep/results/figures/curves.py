@@ -8,7 +8,7 @@ import textwrap
 import matplotlib.pyplot as plt
 import numpy as np
 
-from fcsweep.analysis.figures.common import (CAPTION_SIZE, COLUMN, DOUBLE_COLUMN, ETA_SYMBOL, OKABE_ITO, TAU_PERC,
+from fcsweep.results.figures.common import (CAPTION_SIZE, COLUMN, DOUBLE_COLUMN, ETA_SYMBOL, OKABE_ITO, TAU_PERC,
                                              TIME_UNIT, V0_SYMBOL, caption, _axes, _caption_chars, _colors, _err,
                                              _eta_axis, _no_data, _panels, _plane, _styled, _tidy_log,
                                              _value_colorbar)

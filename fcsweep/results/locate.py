@@ -1,12 +1,18 @@
 """Where a sweep's results lie: a run's directory and trajectory, the phase-diagram dataset.
 
 File finding for the commands that read results (``plot``, ``movie``) and for
-:mod:`fcsweep.analysis.figures`, which draws and writes figures only.
+:mod:`fcsweep.results.figures`, which draws and writes figures only.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
+
+from fcsweep.io.failures import WriteFailure
+from fcsweep.io.schema import DATASET, TRAJECTORY
+from fcsweep.io.sweepdir import run_path
+from fcsweep.results.aggregate import build_dataset, write_dataset
+from fcsweep.results.reduce import ANALYSED
 
 
 def find_run(config, run):
@@ -43,10 +49,7 @@ def find_run(config, run):
 
 def run_trajectory(config, run) -> Path:
     """Trajectory file of run ``run`` (id or index) of a sweep (it may not exist yet)."""
-    from fcsweep.analysis.pipeline import TRAJECTORY_FILE
-
-    spec = find_run(config, run)
-    return Path(config.output) / "runs" / spec.run_id / TRAJECTORY_FILE
+    return run_path(config.output, find_run(config, run).run_id) / TRAJECTORY
 
 
 def sweep_dataset(config):
@@ -61,15 +64,10 @@ def sweep_dataset(config):
     """
     import xarray as xr
 
-    from fcsweep.analysis.pipeline import DATASET_FILE
-
-    nc = Path(config.output) / DATASET_FILE
+    nc = Path(config.output) / DATASET
     if nc.exists():
         with xr.open_dataset(nc) as ds:
             return ds.load()
-    from fcsweep.analysis.aggregate import build_dataset, write_dataset
-    from fcsweep.io.failures import WriteFailure
-
     ds = build_dataset(config)
     if int(ds.attrs.get("n_analysed", 0)):
         try:
@@ -80,5 +78,5 @@ def sweep_dataset(config):
 
 
 def has_analysed_run(ds) -> bool:
-    """False when the dataset records a status and no run has an analysis (status 0)."""
-    return "status" not in ds or bool((ds["status"] == 0).any())
+    """False when the dataset records a status and no run has an analysis (status ``analysed``)."""
+    return "status" not in ds or bool((ds["status"] == ANALYSED).any())

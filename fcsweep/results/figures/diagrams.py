@@ -14,7 +14,7 @@ import numpy as np
 import xarray as xr
 
 from fcsweep.analysis.diffusion import D_EFF_SOLID
-from fcsweep.analysis.figures.common import (CAPTION_SIZE, COLUMN, ETA_LABEL, OKABE_ITO, PHASE_COLORS, V0_LABEL,
+from fcsweep.results.figures.common import (CAPTION_SIZE, COLUMN, ETA_LABEL, OKABE_ITO, PHASE_COLORS, V0_LABEL,
                                              V0_SYMBOL, caption, _axes, _caption_chars, _colors, _edges, _err,
                                              _eta_axis, _flag_words, _grid_ticks, _log_axis, _phase_words, _plane,
                                              _select, _styled, _tidy_log, _value_colorbar)
@@ -160,7 +160,7 @@ def phase_diagram(ds, *, select=None, reasons: bool = True, ax=None):
     Parameters
     ----------
     ds : xarray.Dataset
-        A phase-diagram dataset (:func:`fcsweep.analysis.aggregate.build_dataset`).
+        A phase-diagram dataset (:func:`fcsweep.results.aggregate.build_dataset`).
     select : dict, optional
         Values of the other dimensions (N, ...) to draw.
     reasons : bool

@@ -10,7 +10,7 @@ from matplotlib.colors import Normalize
 import matplotlib.pyplot as plt
 import numpy as np
 
-from fcsweep.analysis.figures.common import COLUMN, OKABE_ITO, STYLE, TIME_UNIT, save_figure
+from fcsweep.results.figures.common import COLUMN, OKABE_ITO, STYLE, TIME_UNIT, save_figure
 from fcsweep.io.failures import remove_stale
 from fcsweep.io.sweepdir import atomic_write
 from fcsweep.model.shape import Q_STAR
@@ -204,7 +204,7 @@ def _frame_title(traj, k, defect) -> str:
 
 def snapshot_run(traj_path, frame=-1, stem=None) -> list[Path]:
     """Draw one frame of a trajectory (cells coloured by q, defects marked)."""
-    from fcsweep.analysis.trajectory import open_trajectory
+    from fcsweep.io.trajectory import open_trajectory
 
     traj = open_trajectory(traj_path)
     k = int(frame) % traj.n_frames
@@ -248,7 +248,7 @@ def movie_run(traj_path, out=None, *, fps=10, every=1, dpi=120, progress=True) -
                           "pip install 'fcsweep[movie]'") from exc
     from tqdm.auto import tqdm
 
-    from fcsweep.analysis.trajectory import open_trajectory
+    from fcsweep.io.trajectory import open_trajectory
 
     traj = open_trajectory(traj_path)
     out = Path(out) if out is not None else Path(traj_path).with_name("movie.mp4")

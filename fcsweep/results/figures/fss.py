@@ -7,7 +7,7 @@ import textwrap
 
 import numpy as np
 
-from fcsweep.analysis.figures.common import (CAPTION_SIZE, COLUMN, OKABE_ITO, caption, _axes, _caption_chars, _err,
+from fcsweep.results.figures.common import (CAPTION_SIZE, COLUMN, OKABE_ITO, caption, _axes, _caption_chars, _err,
                                              _no_data, _plane, _select, _styled)
 from fcsweep.analysis.phase import RHO_D_PERCOLATION
 

@@ -8,7 +8,7 @@
   for the figures of several panels): given, it draws into those axes, else it makes a
   figure;
 * files -- :func:`plot_sweep`, :func:`plot_dataset`, :func:`snapshot_run` and
-  :func:`movie_run` write figure files; finding them is :mod:`fcsweep.analysis.results`.
+  :func:`movie_run` write figure files; finding them is :mod:`fcsweep.results.locate`.
 
 Importing the module leaves matplotlib's backend alone (a notebook keeps its own); the
 command line selects Agg.  Conventions: colour-blind-safe palettes (viridis for ordered
@@ -27,16 +27,16 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from fcsweep.analysis.results import find_run, has_analysed_run, run_trajectory, sweep_dataset
-from fcsweep.analysis.figures.common import (COLUMN, DOUBLE_COLUMN, ETA_LABEL, OKABE_ITO, PHASE_COLORS, STYLE,
+from fcsweep.results.locate import find_run, has_analysed_run, run_trajectory, sweep_dataset
+from fcsweep.results.figures.common import (COLUMN, DOUBLE_COLUMN, ETA_LABEL, OKABE_ITO, PHASE_COLORS, STYLE,
                                              TIME_UNIT, V0_LABEL, caption, save_figure)
-from fcsweep.analysis.figures.diagrams import (SHORT_REASONS, d_eff_curves, phase_diagram, short_reason,
+from fcsweep.results.figures.diagrams import (SHORT_REASONS, d_eff_curves, phase_diagram, short_reason,
                                                summary_diagram, summary_labels)
-from fcsweep.analysis.figures.curves import (cluster_sizes, correlations, largest_cluster, log_binned, msd_curves,
+from fcsweep.results.figures.curves import (cluster_sizes, correlations, largest_cluster, log_binned, msd_curves,
                                              q_distributions)
-from fcsweep.analysis.figures.frames import (FrameArtist, SLIDE, SLIDE_STYLE, cell_polygons, movie_run, snapshot,
+from fcsweep.results.figures.frames import (FrameArtist, SLIDE, SLIDE_STYLE, cell_polygons, movie_run, snapshot,
                                              snapshot_run)
-from fcsweep.analysis.figures.fss import FSS_FIGURES, fss_collapse_figure, largest_cluster_unscaled
+from fcsweep.results.figures.fss import FSS_FIGURES, fss_collapse_figure, largest_cluster_unscaled
 
 __all__ = [
     "COLUMN", "DOUBLE_COLUMN", "ETA_LABEL", "FSS_FIGURES", "FrameArtist", "NothingToPlot", "OKABE_ITO",
@@ -87,10 +87,10 @@ class NothingToPlot(RuntimeError):
 
 
 def plot_sweep(config, *, run=None, frame=-1, outdir=None, measured=()) -> list[Path]:
-    """Sweep figures (aggregating first if needed, :func:`fcsweep.analysis.results.sweep_dataset`),
+    """Sweep figures (aggregating first if needed, :func:`fcsweep.results.locate.sweep_dataset`),
     or the snapshot of run ``run``.  With ``measured`` (paths of ``measure.nc`` files or of
     directories holding one), also ``measured_q_rho``: the movies beside the simulated
-    points on the <q> - rho_d plane (:func:`fcsweep.analysis.figures.measured.measured_plane`).
+    points on the <q> - rho_d plane (:func:`fcsweep.results.figures.measured.measured_plane`).
 
     Raises
     ------
@@ -108,7 +108,7 @@ def plot_sweep(config, *, run=None, frame=-1, outdir=None, measured=()) -> list[
     if measured:
         import xarray as xr
 
-        from fcsweep.analysis.figures.measured import measured_plane
+        from fcsweep.results.figures.measured import measured_plane
 
         files = [Path(p) / "measure.nc" if Path(p).is_dir() else Path(p) for p in measured]
         sets = []

@@ -1,0 +1,410 @@
+"""Every observable of one run, from its arrays: arrays in, a dict of numbers out.
+
+:func:`compute_observables` takes a :class:`RunFrames` (the frame times, the box, the
+parameters and the per-cell arrays of the frames the analysis reads, chosen by
+:func:`frame_plan`) and returns the scalars, curves and frame indices of docs/model.md.
+Reading them from a trajectory and writing ``analysis.h5`` is :mod:`fcsweep.results.analyze`.
+The steps, each on its own frames after the transient:
+
+- shape index ``q`` on up to ``shape_frames`` evenly spaced frames (:func:`shape_observables`);
+- Voronoi defects and clusters on up to ``structure_frames`` frames (:func:`structure_observables`);
+- |Psi6|, G6, G_r and C_G1 and the KTHNY fits and label (:func:`order_observables`);
+- MSD, D_eff and cage breaking over the equilibrated frames (:func:`diffusion_observables`);
+- the phase and percolation labels with their confidence (:func:`label_observables`).
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from typing import Mapping
+
+import numpy as np
+
+from fcsweep.analysis import cage, diffusion, kthny, order, shapes, voronoi
+from fcsweep.analysis.msd import log_lag_indices, msd_curve
+from fcsweep.analysis.phase import classify_percolation, phase_evidence, phase_label
+from fcsweep.analysis.reasons import reason_value
+from fcsweep.analysis.stats import time_average
+from fcsweep.model.observables import KTHNY_FITS
+
+#: What :func:`kthny_observables` gives: the fits, the label and its confidence.
+KTHNY_SCALARS = KTHNY_FITS + ("kthny", "kthny_confidence", "kthny_reason_code")
+
+__all__ = ["AnalysisError", "FramePlan", "RunFrames", "KTHNY_SCALARS", "frame_plan", "evenly", "compute_observables",
+           "shape_observables", "structure_observables", "order_observables", "kthny_observables",
+           "diffusion_observables", "label_observables", "equilibrated_frames", "frame_mean"]
+
+
+class AnalysisError(RuntimeError):
+    """A run that cannot be analysed (too few frames, missing fields, ...)."""
+
+
+@dataclass(frozen=True)
+class FramePlan:
+    """The frame indices each step reads: ``frames`` after the transient, the evenly spaced
+    ``shape_frames`` and ``structure_frames`` among them."""
+
+    frames: np.ndarray
+    shape_frames: np.ndarray
+    structure_frames: np.ndarray
+
+
+@dataclass(frozen=True)
+class RunFrames:
+    """The arrays of one run the observables are computed from.
+
+    Attributes
+    ----------
+    source : str
+        Where they come from (the trajectory path), for error messages.
+    params : mapping
+        Run parameters (``R0``, ``v0``, ``Dr``, ``modes``, ...).
+    box : ndarray, shape (2,)
+    time : ndarray, shape (T,)
+        Times of all recorded frames.
+    plan : FramePlan
+    shape_a, shape_b : ndarray, shape (len(plan.shape_frames), N, M - 1), or None
+        Mode amplitudes on the shape frames; None for rigid discs or shapes not stored.
+    rigid : bool
+        Rigid discs (q is that of a circle).
+    positions : ndarray, shape (len(plan.structure_frames), N, 2)
+        Wrapped centroids on the structure frames.
+    unwrapped : ndarray, shape (len(plan.frames), N, 2)
+        Unwrapped centroids on every frame after the transient.
+    """
+
+    source: str
+    params: Mapping
+    box: np.ndarray
+    time: np.ndarray
+    plan: FramePlan
+    shape_a: np.ndarray | None
+    shape_b: np.ndarray | None
+    rigid: bool
+    positions: np.ndarray
+    unwrapped: np.ndarray
+
+    @property
+    def n_cells(self) -> int:
+        return int(self.positions.shape[1])
+
+
+def evenly(indices: np.ndarray, k: int) -> np.ndarray:
+    """At most ``k`` evenly spaced entries of ``indices`` (always including the last)."""
+    if k <= 0 or len(indices) <= k:
+        return np.asarray(indices)
+    pick = np.unique(np.round(np.linspace(0, len(indices) - 1, k)).astype(int))
+    return np.asarray(indices)[pick]
+
+
+def frame_plan(n_frames: int, settings: Mapping, source: str = "run") -> FramePlan:
+    """The frames after the ``transient`` fraction of ``n_frames``, and those the shape
+    and structure steps read (``shape_frames``, ``structure_frames`` of ``settings``).
+
+    Raises
+    ------
+    AnalysisError
+        With fewer than 3 frames after the transient.
+    """
+    first = int(np.ceil(float(settings["transient"]) * (n_frames - 1) - 1e-9))
+    frames = np.arange(first, n_frames)
+    if frames.size < 3:
+        raise AnalysisError(f"{source}: only {frames.size} frames after the transient "
+                            f"({n_frames} recorded, transient {settings['transient']}); need >= 3")
+    return FramePlan(frames, evenly(frames, int(settings["shape_frames"])),
+                     evenly(frames, int(settings["structure_frames"])))
+
+
+def compute_observables(run: RunFrames, settings: Mapping, *, curves: bool = True,
+                        psi6: bool = True) -> tuple[dict, dict, dict]:
+    """All observables of one run.
+
+    Parameters
+    ----------
+    run : RunFrames
+        The run's arrays on the frames of ``run.plan``.
+    settings : mapping
+        Analysis settings (:func:`fcsweep.results.analyze.settings_with`).
+    curves : bool
+        Compute the curves (MSD, G6, G_r).  The in-run check of ``run.until`` leaves them
+        out: no label depends on them.
+    psi6 : bool
+        Compute |Psi6| (a second Voronoi pass over the structure frames); NaN otherwise.
+
+    Returns
+    -------
+    scalars : dict
+        name -> float, and the ``<label>_reason`` strings.
+    curves : dict
+        name -> (coordinate values, values).
+    extra : dict
+        ``n_sides_counts`` and the analysed frame indices.
+    """
+    plan = run.plan
+    time = run.time[plan.frames] - run.time[plan.frames[0]]
+    if np.any(np.diff(time) <= 0):
+        raise AnalysisError(f"{run.source}: frame times are not increasing")
+    if not np.allclose(np.diff(time), time[1] - time[0], rtol=1e-6, atol=1e-12):
+        raise AnalysisError(f"{run.source}: frames are not equally spaced in time")
+    R0 = float(run.params.get("R0", 1.0))
+    boxr = run.box / R0  # lengths in units of R0 from here on
+    pos = run.positions / R0
+    sc, cv, q_start = shape_observables(run, settings)
+    s2, c2, ds = structure_observables(pos, boxr, plan.structure_frames)
+    sc.update(s2)
+    cv.update(c2)
+    s3, c3 = order_observables(pos, boxr, plan.structure_frames, settings, curves=curves, psi6=psi6)
+    sc.update(s3)
+    cv.update(c3)
+    starts = ([] if q_start is None else [q_start]) + [plan.structure_frames[ds["rho_d_start"]]]
+    eq = equilibrated_frames(plan.frames, starts)
+    s4, c4, est = diffusion_observables(run, eq, boxr, settings, curves=curves)
+    sc.update(s4)
+    cv.update(c4)
+    sc.update(label_observables(sc, est, settings, float(run.params.get("Dr", np.nan))))
+    extra = {"n_sides_counts": ds["n_sides_counts"], "frames": plan.frames,
+             "structure_frames": plan.structure_frames, "shape_frames": plan.shape_frames}
+    return sc, cv, extra
+
+
+def shape_observables(run: RunFrames, settings: Mapping):
+    """Per-frame ``<q>`` and fraction above q*, time averages with errors, and the q histogram.
+
+    Returns
+    -------
+    scalars, curves : dict
+    start : int or None
+        Frame index where the ``<q>`` series is stationary (None without shapes).
+    """
+    sf = run.plan.shape_frames
+    lo, hi, nb = settings["q_edges"]
+    edges = np.linspace(float(lo), float(hi), int(nb) + 1)
+    centres = 0.5 * (edges[1:] + edges[:-1])
+    if run.rigid:
+        q = np.full((sf.size, run.n_cells), shapes.Q_CIRCLE)
+    elif run.shape_a is not None and run.shape_b is not None:
+        q = shapes.shape_indices(run.shape_a, run.shape_b, 1.0, int(settings["q_points"]))
+    else:
+        q = np.full((1, run.n_cells), np.nan)  # shapes not stored
+    qs = shapes.q_statistics(q, edges)
+    sc, cv = {"q_std": qs["q_std"]}, {"q_hist": (centres, qs["q_hist"])}
+    start = None
+    if np.all(np.isfinite(q)):
+        for name, series in (("q_mean", q.mean(axis=1)), ("q_frac_above", (q > shapes.Q_STAR).mean(axis=1))):
+            ta = time_average(series)
+            sc[name], sc[f"{name}_err"] = ta.mean, ta.err
+            if name == "q_mean":
+                start = sf[ta.start]
+    else:
+        sc.update(q_mean=np.nan, q_mean_err=np.nan, q_frac_above=np.nan, q_frac_above_err=np.nan)
+    return sc, cv, start
+
+
+def structure_observables(pos: np.ndarray, boxr: np.ndarray, frames: np.ndarray):
+    """Voronoi defect fraction, largest clusters (also with shuffled labels) and cluster sizes.
+
+    Returns
+    -------
+    scalars, curves : dict
+    stats : dict
+        :func:`fcsweep.analysis.voronoi.defect_statistics` (``rho_d_start``, ``n_sides_counts``).
+    """
+    ds = voronoi.defect_statistics(pos, boxr, frame_indices=frames)
+    sc = {}
+    for name in ("rho_d", "largest_cluster_fraction", "largest_cluster_fraction_shuffled"):
+        sc[name], sc[f"{name}_err"] = ds[name], ds[f"{name}_err"]
+    counts = ds["cluster_size_counts"]
+    cv = {"cluster_size_distribution": (np.arange(1, pos.shape[1] + 1), counts.astype(float))}
+    return sc, cv, ds
+
+
+def order_observables(pos: np.ndarray, boxr: np.ndarray, frames: np.ndarray, settings: Mapping, *,
+                      curves: bool = True, psi6: bool = True):
+    """|Psi6| on every structure frame; G6(r), G_r(dx, 0), C_G1(r) on up to
+    ``correlation_frames`` of them, and the KTHNY fits and label (:func:`kthny_observables`).
+
+    Returns
+    -------
+    scalars, curves : dict
+    """
+    N = pos.shape[1]
+    cf = set(evenly(frames, int(settings["correlation_frames"])).tolist()) if curves else set()
+    mods, g6s, grs, cgs = [], [], [], []
+    r = dxs = None
+    spacing = cage.neighbour_spacing(N, boxr)
+    dr = float(settings["g6_dr"])
+    for f, P in zip(frames, pos) if (psi6 or curves) else ():  # G6 and G_r need Psi6 too
+        vn = voronoi.voronoi_neighbors(P, boxr)
+        ps = order.psi6(P, boxr, vn.nlist)
+        mod, ang = order.global_psi6(ps)
+        mods.append(mod)
+        if int(f) in cf:
+            r, g = order.g6(P, boxr, ps, dr=dr)
+            pairs = order.pair_vectors(P, boxr, order.max_range(boxr))  # one query for G_r and C_G1
+            dxs, gr = order.gr_cut(P, boxr, ang, dx=float(settings["gr_dx"]), vectors=pairs)
+            G1 = order.first_shell_vectors(P, boxr, ang, spacing)
+            _, cg = order.shell_correlation(pairs, G1, dr=dr, r_max=order.max_range(boxr))
+            del pairs
+            g6s.append(g)
+            grs.append(gr)
+            cgs.append(cg)
+    sc, cv = {}, {}
+    if mods:
+        ta = time_average(np.asarray(mods))
+        sc["psi6"], sc["psi6_err"] = ta.mean, ta.err
+    else:
+        sc["psi6"] = sc["psi6_err"] = np.nan
+    conf = float(settings["label_confidence"])
+    if not curves:
+        sc.update(kthny_observables(None, None, None, None, N, conf, np.nan))
+        return sc, cv
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # bins without pairs in every frame
+        cv["G6"] = (r, np.nanmean(np.asarray(g6s), axis=0) if r.size else r.copy())
+        cv["Gr"] = (dxs, np.mean(np.asarray(grs), axis=0))
+        cv["C_G1"] = (r, np.nanmean(np.asarray(cgs), axis=0) if r.size else r.copy())
+    sc.update(kthny_observables(r, np.asarray(g6s), dxs, np.asarray(grs), N, conf, spacing, np.asarray(cgs), boxr))
+    return sc, cv
+
+
+def kthny_observables(r, g6_frames, dx, gr_frames, n_cells: int, confidence: float, spacing: float,
+                      cg_frames=None, box=None) -> dict:
+    """KTHNY fits and label from the per-frame G6(r), G_r(dx, 0) and C_G1(r) (NaN without curves)."""
+    out = {k: np.nan for k in KTHNY_SCALARS}
+    out["kthny_reason"] = "correlations not computed"
+    out["kthny_reason_code"] = float(reason_value("not_computed"))
+    if r is None or g6_frames.size == 0 or gr_frames.size == 0:
+        return out
+    G6, G6e = frame_mean(g6_frames)
+    Gr, Gre = frame_mean(gr_frames)
+    CG, CGe = frame_mean(cg_frames) if cg_frames is not None and cg_frames.size else (None, None)
+    fits = kthny.kthny_fits(r, G6, dx, Gr, G6_err=G6e, Gr_err=Gre, spacing=spacing, C_G1=CG, C_G1_err=CGe,
+                            box=box)
+    lab = kthny.classify_kthny(fits, min_confidence=confidence, n_cells=n_cells)
+    for k in KTHNY_FITS:
+        out[k] = float(fits.get(k, np.nan))
+    out.update(kthny=float(lab.code), kthny_confidence=lab.confidence, kthny_reason=lab.reason,
+               kthny_reason_code=float(reason_value(lab.reason_code)))
+    return out
+
+
+def diffusion_observables(run: RunFrames, eq: np.ndarray, boxr: np.ndarray, settings: Mapping, *,
+                          curves: bool = True):
+    """MSD (all frames after the transient, for the curve), D_eff and cage breaking (from the
+    equilibrated frames ``eq``).
+
+    Returns
+    -------
+    scalars, curves : dict
+    estimate : fcsweep.analysis.diffusion.DiffusionEstimate
+    """
+    frames, t = run.plan.frames, run.time
+    v0, Dr = float(run.params.get("v0", np.nan)), float(run.params.get("Dr", np.nan))
+    x = run.unwrapped
+    if not np.all(np.isfinite(x)):
+        raise AnalysisError(f"{run.source}: non-finite positions after the transient")
+    cv = {}
+    if curves:
+        msd, _ = msd_curve(x, subtract_drift=bool(settings["subtract_drift"]), n_blocks=1)
+        lags = log_lag_indices(frames.size, int(settings["msd_lags"]))
+        cv["msd"] = ((t[frames] - t[frames[0]])[lags], msd[lags])
+    x = x[eq - frames[0]]
+    est = diffusion.estimate_diffusion(
+        t[eq] - t[eq[0]], x, Dr=Dr, max_time_blocks=int(settings["max_time_blocks"]),
+        min_block_persistence=float(settings["min_block_persistence"]),
+        fit_start=float(settings["fit_start"]),
+        settle_tol=0.1 * diffusion.D_EFF_SOLID * diffusion.free_diffusion(v0, Dr))
+    cb = cage.cage_breaking(t[eq] - t[eq[0]], x, boxr)
+    D0 = diffusion.free_diffusion(v0, Dr)
+    conv = (lambda d: diffusion.effective_diffusion(d, 0.0, v0, Dr)[0])
+    sc = dict(D_s=est.D, D_s_err=est.D_err, D0=D0, D_eff=conv(est.D), D_eff_err=conv(est.D_err),
+              D_eff_err_time=conv(est.D_err_time), D_eff_err_cells=conv(est.D_err_cells),
+              D_eff_late=conv(est.D_late), D_eff_late_err=conv(est.D_late_err),
+              D_eff_long=conv(est.D_long), D_eff_long_err=conv(est.D_long_err),
+              msd_diffusive=float(est.diffusive), msd_long_enough=float(est.long_enough),
+              n_time_blocks=float(est.n_time_blocks), block_span=est.block_span,
+              fit_t_min=est.t_min, fit_t_max=est.t_max, D_eff_g_cells=est.g_cells,
+              **cb.scalars(v0, Dr),
+              D_eff_cr=conv(cb.D_cr), D_eff_cr_err=conv(cb.D_cr_err),
+              n_frames=float(eq.size), t_start=float(t[frames[0]]),
+              t_end=float(t[frames[-1]]), t_equilibrated=float(t[eq[0]]))
+    if curves:
+        cv["F_s"] = (cb.lags, cb.F_s)
+        cv["cage_msd"] = (cb.lags, cb.cr_msd)
+    return sc, cv, est
+
+
+def label_observables(sc: Mapping, est, settings: Mapping, Dr: float) -> dict:
+    """The phase and percolation labels with their confidence and reason, from the scalars
+    ``sc`` and the diffusion estimate ``est`` (a run too short or not diffusive says so)."""
+    note = ""
+    if not est.long_enough:
+        note = (f"run too short for D_eff: {est.block_span:.4g} time units analysed, "
+                f"need {float(settings['min_block_persistence']):g}/Dr = "
+                f"{float(settings['min_block_persistence']) / Dr:.4g}")
+    elif not est.diffusive and not np.isfinite(sc["D_eff_cr"]):
+        note = (f"MSD not diffusive within the run: D_eff {sc['D_eff']:.3g} +- {sc['D_eff_err']:.2g}, "
+                f"from the late half of the fit window {sc['D_eff_late']:.3g} +- {sc['D_eff_late_err']:.2g}, "
+                f"at another block length {sc['D_eff_long']:.3g} +- {sc['D_eff_long_err']:.2g}")
+    conf = float(settings["label_confidence"])
+    out = {}
+    lab = phase_label(phase_evidence(sc, note), min_confidence=conf)
+    out.update(phase=float(lab.code), phase_confidence=lab.confidence, phase_reason=lab.reason,
+               phase_reason_code=float(reason_value(lab.reason_code)))
+    lab = classify_percolation(sc["rho_d"], sc["rho_d_err"], min_confidence=conf,
+                               threshold=float(settings["percolation_threshold"]))
+    out.update(percolated=float(lab.code), percolated_confidence=lab.confidence, percolated_reason=lab.reason,
+               percolated_reason_code=float(reason_value(lab.reason_code)))
+    return out
+
+
+def equilibrated_frames(frames: np.ndarray, starts) -> np.ndarray:
+    """The frames D_eff and the cage test use: those from the latest equilibration start.
+
+    Each start comes from its own series (``<q>`` on the shape frames, ``rho_d`` on the
+    structure frames), which :func:`fcsweep.analysis.stats.detect_equilibration` cuts by
+    at most half; on their coarser frame grids that half can reach a few frames past the
+    half of ``frames``, so the cut is capped there: at least half of the frames after the
+    transient stay (a run of 2 x 8/Dr after the transient always has a window of 8/Dr).
+
+    Parameters
+    ----------
+    frames : ndarray of int
+        Frame indices after the transient, increasing.
+    starts : sequence of int
+        Frame indices where each series is stationary.
+
+    Returns
+    -------
+    ndarray of int
+    """
+    frames = np.asarray(frames)
+    if frames.size < 3 or not len(starts):
+        return frames
+    start = min(max(starts), frames[(frames.size - 1) // 2])
+    eq = frames[frames >= start]
+    return eq if eq.size >= 3 else frames
+
+
+def frame_mean(curves: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Mean over frames of per-frame curves and its standard error (NaN with one frame).
+
+    Parameters
+    ----------
+    curves : ndarray, shape (frames, bins)
+        NaN where a frame has no value in a bin.
+
+    Returns
+    -------
+    mean, err : ndarray, shape (bins,)
+    """
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # bins without pairs in some frames
+        m = np.nanmean(curves, axis=0)
+        n = np.sum(np.isfinite(curves), axis=0)
+        if curves.shape[0] > 1:
+            e = np.nanstd(curves, axis=0, ddof=1) / np.sqrt(np.maximum(n, 1))
+        else:
+            e = np.full(m.shape, np.nan)
+    return m, e
