@@ -1,5 +1,5 @@
 """Running sweeps: one run (:mod:`.runner`), many runs on executors (:mod:`.executors`),
-status tables (:mod:`.status`) and progress display (:mod:`.progress`)."""
+status tables (:mod:`fcsweep.sweep.status`) and progress display (:mod:`.progress`)."""
 
 from fcsweep.sweep.executors import run_sweep, select_runs
 from fcsweep.sweep.runner import RunOutcome, run_one
