@@ -3,9 +3,11 @@
 Checked: README.md, CHANGELOG.md, results_schema.md, every page of docs/ (campaign logs
 under docs/repro and docs/adaptive included), configs/README.md and the comments of
 configs/*.yaml, workflows/README.md.  The documentation site (docs/conf.py) is checked too:
-every page is in its table of contents, and every file it includes or maps a link to exists.  A reference is a markdown link (``[text](target)``,
-with an optional ``#anchor``), a repository path (``docs/x.md``, ``configs/y.yaml``,
-``fcsweep/.../z.py``, ...), a bare ``NAME.md``, or a README section quoted as
+every page is in its table of contents, and every file it includes or maps a link to exists.
+
+A reference is a markdown link (``[text](target)``, with an optional ``#anchor``), a
+repository path (``docs/x.md``, ``configs/y.yaml``, ``fcsweep/.../z.py``, ...), a bare ``NAME.md``,
+or a README section quoted as
 ``README "Title"`` / ``README: "Title"``.  Files a sweep writes (``trajectory.h5``,
 ``phase_diagram.nc``, ...) are names, not references, and are not checked.
 """
