@@ -2,14 +2,17 @@
 
 Writes ``benchmarks/results/readme_numbers.json``: the demo's wall times, the size of the
 test suite, and the CPU cost of every ``configs/*.yaml`` from the cost model
-(:mod:`fcsweep.sweep.cost`), with the date and the machine's load.  The README quotes
-these numbers (``quotes``: a regex and the text it must find, checked by
-``tests/test_docs_code.py``) and each config carries a generated ``# cost:`` comment line.
+(:mod:`fcsweep.sweep.cost`), with the date and the machine's load.  The README and the
+pages of docs/ quote these numbers (``quotes``: a regex and the text it must find, checked
+by ``tests/test_docs_code.py``; the test count is also checked against the tests pytest
+collects), and each config carries a generated ``# cost:`` comment line.  The quotes of
+the numbers measured in a call are rewritten in README.md and docs/*.md.
 
 Usage:
     python benchmarks/readme_numbers.py                 # everything (a few minutes)
     python benchmarks/readme_numbers.py --only configs  # re-cost the configs and rewrite their cost lines
     python benchmarks/readme_numbers.py --only demo --only tests
+    python benchmarks/readme_numbers.py --only tests    # the test count, after tests were added
     python benchmarks/readme_numbers.py --suite         # also time the default test suite (minutes)
 """
 
@@ -162,6 +165,28 @@ def quotes(data: dict) -> list[dict]:
     return q
 
 
+#: The documents that quote the numbers.
+QUOTING = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+#: Keys of the quotes each part measures.
+MEASURES = {"demo": ("demo_simulate_s", "demo_analysis_s"), "tests": ("tests_default",), "suite": ("suite_wall_s",)}
+
+
+def rewrite_quotes(data: dict, keys) -> list[str]:
+    """Put the measured text into every place a document quotes it (the group of each quote's
+    pattern); returns the documents changed."""
+    changed = []
+    for doc in QUOTING:
+        text = new = doc.read_text()
+        for q in data["quotes"]:
+            if q["key"] in keys:
+                new = re.sub(q["pattern"], lambda m, q=q: m.group(0)[:m.start(1) - m.start(0)] + q["text"]
+                             + m.group(0)[m.end(1) - m.start(0):], new)
+        if new != text:
+            doc.write_text(new)
+            changed.append(doc.relative_to(ROOT).as_posix())
+    return changed
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", action="append", choices=["demo", "tests", "configs"],
@@ -185,6 +210,9 @@ def main(argv=None):
                         "load_average": [round(x, 2) for x in os.getloadavg()]}
     data["quotes"] = quotes(data)
     OUT.write_text(json.dumps(data, indent=1, sort_keys=True) + "\n")
+    measured = {k for part in parts | ({"suite"} if a.suite else set()) for k in MEASURES.get(part, ())}
+    for doc in rewrite_quotes(data, measured):
+        print(f"rewrote the quoted numbers in {doc}")
     print(json.dumps({k: v for k, v in data.items() if k not in ("configs", "quotes")}, indent=1))
 
 

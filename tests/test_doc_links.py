@@ -1,9 +1,13 @@
 """Every file, section and path the documents name exists in the repository.
 
-Checked: README.md, results_schema.md, docs/*.md, configs/README.md and the comments of
-configs/*.yaml, workflows/README.md.  A reference is a markdown link (``[text](target)``,
-with an optional ``#anchor``), a repository path (``docs/x.md``, ``configs/y.yaml``,
-``fcsweep/.../z.py``, ...), a bare ``NAME.md``, or a README section quoted as
+Checked: README.md, CHANGELOG.md, results_schema.md, every page of docs/ (campaign logs
+under docs/repro and docs/adaptive included), configs/README.md and the comments of
+configs/*.yaml, workflows/README.md.  The documentation site (docs/conf.py) is checked too:
+every page is in its table of contents, and every file it includes or maps a link to exists.
+
+A reference is a markdown link (``[text](target)``, with an optional ``#anchor``), a
+repository path (``docs/x.md``, ``configs/y.yaml``, ``fcsweep/.../z.py``, ...), a bare ``NAME.md``,
+or a README section quoted as
 ``README "Title"`` / ``README: "Title"``.  Files a sweep writes (``trajectory.h5``,
 ``phase_diagram.nc``, ...) are names, not references, and are not checked.
 """
@@ -16,7 +20,8 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-DOCS = sorted({*ROOT.glob("*.md"), *(ROOT / "docs").glob("*.md"), ROOT / "configs" / "README.md",
+SITE = ROOT / "docs"
+DOCS = sorted({*ROOT.glob("*.md"), *(ROOT / "docs").rglob("*.md"), ROOT / "configs" / "README.md",
                *(ROOT / "configs").glob("*.yaml"), ROOT / "workflows" / "README.md"})
 
 LINK = re.compile(r"\[[^\]]*\]\(([^)\s]+)\)")
@@ -84,3 +89,61 @@ def test_the_checker_sees_broken_references(tmp_path):
     doc.write_text('See MODEL.md and [a](nowhere.md), docs/nothing.md, README "No such section".')
     kinds = {k for k, _ in _references(doc)}
     assert kinds == {"link", "path", "md", "section"}
+
+
+# ------------------------------------------------------------------ the documentation site
+
+INCLUDE = re.compile(r"^```\{include\}\s+(\S+)\s*$", re.M)
+TOCTREE = re.compile(r"^```\{toctree\}\n(.*?)^```", re.M | re.S)
+
+
+def _site_conf():
+    """docs/conf.py as a module (it only adds the repository to sys.path and imports fcsweep)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("fcsweep_docs_conf", SITE / "conf.py")
+    conf = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(conf)
+    return conf
+
+
+def _excluded(page: Path, patterns) -> bool:
+    rel = page.relative_to(SITE)
+    return any(rel.match(p) or rel.as_posix().startswith(p.rstrip("*/") + "/") for p in patterns)
+
+
+def _toctree_entries() -> set[str]:
+    entries = set()
+    for page in SITE.rglob("*.md"):
+        for block in TOCTREE.findall(page.read_text()):
+            entries |= {ln.strip() for ln in block.splitlines() if ln.strip() and not ln.startswith(":")}
+    return entries
+
+
+def test_every_page_is_in_the_site():
+    """A page added to docs/ shows up in the site's tables of contents (or is excluded on
+    purpose in docs/conf.py), and every entry of them is a page."""
+    conf = _site_conf()
+    pages = {p.relative_to(SITE).with_suffix("").as_posix() for p in SITE.rglob("*.md")
+             if not _excluded(p, conf.exclude_patterns)}
+    entries = _toctree_entries()
+    assert pages - {"index"} <= entries, f"pages in no toctree of docs/index.md: {sorted(pages - entries - {'index'})}"
+    assert entries <= pages, f"toctree entries that are not pages: {sorted(entries - pages)}"
+
+
+def test_the_site_includes_and_maps_files_that_exist():
+    """The pages that include a repository file (configuration, schema, clusters, ...)
+    include one that exists, and the links the site redirects to a page point at files
+    that exist and at pages of the site."""
+    included = {}
+    for page in SITE.rglob("*.md"):
+        for target in INCLUDE.findall(page.read_text()):
+            included[target] = (page.parent / target).resolve()
+    for must in ("configs/README.md", "results_schema.md", "workflows/README.md", "CHANGELOG.md"):
+        assert ROOT / must in included.values(), f"no page of docs/ includes {must}"
+    missing = [t for t, path in included.items() if not path.exists()]
+    assert not missing, f"included files missing: {missing}"
+    for target, page in _site_conf().PAGE_OF.items():
+        assert (SITE / target).exists(), f"docs/conf.py PAGE_OF: {target} does not exist"
+        assert (SITE / page).exists() and (SITE / target).resolve() in included.values(), \
+            f"docs/conf.py PAGE_OF: {page} should be the page that includes {target}"

@@ -1,7 +1,8 @@
 """Every code block of README.md and docs/*.md runs as written, or says why it cannot.
 
 - A fenced block names its language: ``python`` and ``bash`` blocks are code, ``text``
-  blocks are output or listings (not run).
+  blocks are output or listings (not run); ``{name}`` fences are MyST directives of the
+  documentation site (``{include}``, ``{toctree}``, ...), not code.
 - A code block that cannot run here (installs packages, hours of CPU, a cluster) is
   preceded by ``<!-- not-run: REASON -->`` on the line before its fence; the reason is
   required.  Its ``fcsweep`` commands are still parsed by the real CLI, so a renamed
@@ -10,9 +11,11 @@
 - ``bash`` blocks run with ``bash -e`` (slow: they compute the demo), the blocks of one
   document in order in one scratch directory holding the repository's ``configs/``, with
   a private cost cache.
-- The measured numbers the README quotes come from ``benchmarks/results/readme_numbers.json``
-  (written by ``benchmarks/readme_numbers.py``); the config comments' cost lines from the
-  same file.  Compared here as text, never re-measured.
+- The measured numbers the README and docs/*.md quote come from
+  ``benchmarks/results/readme_numbers.json`` (written by ``benchmarks/readme_numbers.py``);
+  the config comments' cost lines from the same file.  Compared here as text, never
+  re-measured — except the size of the test suite, which is also compared with the tests
+  pytest collects now (slow tests deselected, as ``python -m pytest`` does).
 """
 
 from __future__ import annotations
@@ -33,7 +36,8 @@ DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
 NUMBERS = ROOT / "benchmarks" / "results" / "readme_numbers.json"
 CODE = ("python", "bash")
 TEXT = ("text",)
-FENCE = re.compile(r"^```(\S*)\s*$")
+DIRECTIVE = re.compile(r"^\{[\w-]+\}$")  # a MyST directive fence such as ```{include}
+FENCE = re.compile(r"^```(\S*)(?:\s.*)?$")  # a directive fence has arguments: ```{include} PATH
 NOT_RUN = re.compile(r"^<!--\s*not-run:(.*?)-->\s*$")
 
 
@@ -65,7 +69,8 @@ def _ids(blocks):
 
 
 def test_every_block_names_its_language():
-    bad = [f"{b['doc']}:{b['line']} ```{b['lang']}" for b in BLOCKS if b["lang"] not in CODE + TEXT]
+    bad = [f"{b['doc']}:{b['line']} ```{b['lang']}" for b in BLOCKS
+           if b["lang"] not in CODE + TEXT and not DIRECTIVE.match(b["lang"])]
     assert not bad, f"fenced blocks must be ```python, ```bash or ```text: {bad}"
 
 
@@ -168,11 +173,16 @@ def _numbers() -> dict:
     return json.loads(NUMBERS.read_text())
 
 
+def _quoting_text() -> str:
+    """README.md and the site's pages (docs/performance.md holds the timings)."""
+    return "\n".join(d.read_text() for d in DOCS)
+
+
 def test_readme_quotes_the_measured_numbers():
-    """Each number the README gives for the demo, the analysis and the test suite is the
-    one in readme_numbers.json (its ``quotes``: a regex with one group, and the text
-    that group must read)."""
-    readme = (ROOT / "README.md").read_text() + (ROOT / "docs" / "guide.md").read_text()  # the guide holds the timings
+    """Each number the README and the docs give for the demo, the analysis and the test
+    suite is the one in readme_numbers.json (its ``quotes``: a regex with one group, and
+    the text that group must read)."""
+    readme = _quoting_text()
     data = _numbers()
     assert data["quotes"], "readme_numbers.json lists no quotes"
     for q in data["quotes"]:
@@ -188,3 +198,40 @@ def test_config_cost_lines_match_the_cost_model_output():
         text = (ROOT / "configs" / name).read_text()
         lines = [ln for ln in text.splitlines() if ln.startswith("# cost:")]
         assert lines == [entry["comment"]], f"configs/{name}: run benchmarks/readme_numbers.py --configs"
+
+
+# ------------------------------------------------------------------ the size of the suite
+
+REGENERATE = "python benchmarks/readme_numbers.py --only tests"
+
+
+def _whole_default_suite(config) -> bool:
+    """True when this session runs what ``python -m pytest`` runs: the test paths, the
+    default marker selection, nothing filtered."""
+    o = config.option
+    args = {Path(str(a).split("::")[0]).resolve() for a in config.args}
+    return (args <= {ROOT, ROOT / "tests"} and (o.markexpr or "") == "not slow" and not o.keyword
+            and not getattr(o, "lf", False) and not getattr(o, "failedfirst", False)
+            and not getattr(o, "deselect", None) and not getattr(o, "ignore", None)
+            and not getattr(o, "ignore_glob", None))
+
+
+def _collected_default_suite(request) -> int:
+    if _whole_default_suite(request.config):
+        return len(request.session.items)
+    out = subprocess.run([sys.executable, "-m", "pytest", "--collect-only", "-q", "-p", "no:cacheprovider"],
+                         cwd=ROOT, capture_output=True, text=True, timeout=600).stdout
+    m = re.search(r"(\d+)(?:/\d+)? tests? collected", out)
+    assert m, f"cannot read the test count from pytest --collect-only:\n{out[-2000:]}"
+    return int(m.group(1))
+
+
+def test_quoted_test_count_is_the_collected_default_suite(request):
+    """The number of tests the README and the docs quote is the number ``python -m pytest``
+    selects now (the whole default suite: read from this very session when it is the
+    whole suite, otherwise from ``pytest --collect-only``)."""
+    quoted = {q["text"] for q in _numbers()["quotes"] if q["key"] == "tests_default"}
+    assert quoted, "readme_numbers.json quotes no test count"
+    collected = _collected_default_suite(request)
+    assert quoted == {str(collected)}, (f"the docs quote {sorted(quoted)} tests, pytest collects {collected} "
+                                        f"by default: run `{REGENERATE}`")

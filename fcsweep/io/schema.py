@@ -25,7 +25,9 @@ PARAMETERS = "/parameters"
 #: H5MD version written.
 H5MD_VERSION = (1, 1)
 
-#: Status values of a run (``status.json`` key ``status``).  Life cycle::
+#: Status values of a run (``status.json`` key ``status``).
+#:
+#: Life cycle::
 #:
 #:     pending -> running -> done
 #:                  |-> interrupted (signal; resumes from the checkpoint at the signal)

@@ -5,7 +5,7 @@ when the file of that very function changes, not when a function it inlines from
 module does, nor when a module-level constant it reads from another module changes (the
 contact-arc constants live in :mod:`fcsweep.model.rates`); a stale entry can then crash
 or silently compute with old constants.  The cache therefore lives in a directory named
-after a hash of the kernel sources and the model modules they import:
+after a hash of the kernel sources and the model modules they import::
 
     $NUMBA_CACHE_DIR/fcsweep-<hash>   if NUMBA_CACHE_DIR is set (read-only installs,
                                        clusters: point it at a writable scratch path)

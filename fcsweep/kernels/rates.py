@@ -233,7 +233,7 @@ def all_rates(pos, a, b, prm, periodic, quad, tables, scratch, nl, out, use_list
     it, the higher-index cell recomputes
     the pair (small boxes only).
 
-    With ``coef > 0`` (the ``contact-implicit`` integrator, :mod:`.contacts`) every
+    With ``coef > 0`` (the ``contact-implicit`` integrator, :mod:`fcsweep.kernels.contacts`) every
     pair's integrals are scaled by the pair's implicit factor before they are added: a
     point rule's weights via a copy of ``W[i]`` in ``pbuf[tid]``, the arc rule's by
     resolving the pair into ``pbuf[tid]``.  (A cell overlapping its own periodic image,

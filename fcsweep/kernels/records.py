@@ -4,7 +4,7 @@ compiles to plain tuples), and the layout of the float parameter vector.
 A record groups the arrays of one role so that a kernel takes a few records instead of
 dozens of positional arrays; the arrays themselves are described in :mod:`.geometry`
 (contour arrays), :mod:`.rates` (scratch), :mod:`.verlet` (neighbour list) and
-:mod:`.contacts` (contact-jacobi's pair records).
+:mod:`fcsweep.kernels.contacts` (contact-jacobi's pair records).
 
 A parallel kernel unpacks its records into local arrays at its top, before any prange
 loop, and the functions inlined into a loop body take plain arrays: numba loses the

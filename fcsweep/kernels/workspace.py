@@ -65,7 +65,7 @@ class Workspace:
         buffer, own shares, pair records, back index) for up to ``capacity`` neighbours
         per cell.  The pair buffer holds, for the arc rule, the share of list pair (i, p)
         that cell nbr[i, p] collects, found through the back index; contact-jacobi keeps
-        i's share and the pair's record (:mod:`.contacts`)."""
+        i's share and the pair's record (:mod:`fcsweep.kernels.contacts`)."""
         N = self.N
         rows = N * capacity if self.pair_buffer else 0
         records = rows if self.pair_records else 0

@@ -4,7 +4,7 @@ This module is an *independent* reference for the fast kernels: it shares nothin
 them but :mod:`fcsweep.model.shape` (``a0_of``, ``perimeter``, ``bounding_radius``).
 
 Overlap area of two cells (Green's theorem, exact integrals)
------------------------------------------------------------
+------------------------------------------------------------
 Cells are star-shaped about their polar origins r_i.  The boundary of i ∩ j is the part
 of contour i inside j plus the part of contour j inside i, both run counter-clockwise, so
 with the origin at r_i

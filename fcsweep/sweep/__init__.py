@@ -1,7 +1,8 @@
-"""Running sweeps: one run (:mod:`.runner`), many runs on executors (:mod:`.executors`)
-with the options of one frozen record (:mod:`.options`), the dry run (:mod:`.plan`), the
-step's cost (:mod:`.bench`), status tables (:mod:`.status`) and progress display
-(:mod:`.progress`)."""
+"""Running sweeps: one run (:mod:`fcsweep.sweep.runner`), many runs on executors
+(:mod:`fcsweep.sweep.executors`) with the options of one frozen record
+(:mod:`fcsweep.sweep.options`), the dry run (:mod:`fcsweep.sweep.plan`), the step's cost
+(:mod:`fcsweep.sweep.bench`), status tables (:mod:`fcsweep.sweep.status`) and progress
+display (:mod:`fcsweep.sweep.progress`)."""
 
 from fcsweep.sweep.executors import run_sweep, select_runs
 from fcsweep.sweep.options import SweepOptions

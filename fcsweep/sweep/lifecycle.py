@@ -7,19 +7,19 @@ written) and returns an :class:`Assessment`: the state word every command shows
 The sweep runner (:func:`fcsweep.sweep.runner.run_one`) acts on it, and the dry run
 (:mod:`fcsweep.sweep.plan`) prints it, so the dry run predicts what ``simulate`` does.
 
-Actions, in the order they are decided:
+Actions, in the order they are decided::
 
-``failed``   failed for a reason a relaunch does not fix (cause "simulation" or
-             "conflict"); rerun only with ``--retry-failed`` (or ``--force``).  A failure
-             with cause "io" (full disk, quota...) resumes by itself.
-``skip``     done, with these physics, long enough, trajectory sound.
-``blocked``  done, or checkpointed, with other run settings: ``--force`` recomputes it.
-``extend``   done, but the config wants it longer: continues from its final checkpoint.
-``locked``   another live process holds the run.
-``resume``   continues from its checkpoint (or finishes a trajectory written just before a
-             kill: ``steps_left`` 0).
-``start``    computed from step 0 (fresh, ``--force``, a damaged or missing trajectory,
-             an unusable partial trajectory).
+    ``failed``   failed for a reason a relaunch does not fix (cause "simulation" or
+                 "conflict"); rerun only with ``--retry-failed`` (or ``--force``).  A failure
+                 with cause "io" (full disk, quota...) resumes by itself.
+    ``skip``     done, with these physics, long enough, trajectory sound.
+    ``blocked``  done, or checkpointed, with other run settings: ``--force`` recomputes it.
+    ``extend``   done, but the config wants it longer: continues from its final checkpoint.
+    ``locked``   another live process holds the run.
+    ``resume``   continues from its checkpoint (or finishes a trajectory written just before a
+                 kill: ``steps_left`` 0).
+    ``start``    computed from step 0 (fresh, ``--force``, a damaged or missing trajectory,
+                 an unusable partial trajectory).
 """
 
 from __future__ import annotations
