@@ -40,8 +40,14 @@ def _headings(path: Path) -> list[str]:
     return [m.group(1).strip() for m in re.finditer(r"^#+\s+(.*)$", path.read_text(), re.M)]
 
 
+#: What a documented command builds (git-ignored): named before it exists.
+BUILT = ("docs/_build/",)
+
+
 def _exists(target: str, doc: Path) -> bool:
     target = target.rstrip(".,;:")
+    if (target + "/").startswith(BUILT):
+        return True
     return (doc.parent / target).exists() or (ROOT / target).exists()
 
 
