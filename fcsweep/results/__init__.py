@@ -8,8 +8,7 @@ Modules
 -------
 analyze    analyze_run / analyze_sweep: trajectory -> analysis.h5, the analysis settings
 aggregate  build_dataset / aggregate_sweep: per-run files -> phase_diagram.nc
-reduce     the dataset's replicate means, point labels, Fisher exponents, FSS collapses,
-           its variable attributes and run status flags
+reduce     replicate means, point labels, Fisher exponents, FSS collapses, attributes, status flags
 settle     assess_trajectory: the in-run ``run.until`` check on a partial trajectory
 locate     where a sweep's results lie: a run's trajectory, the dataset
 cells      the frames an export reads (per-cell quantities, contours)
