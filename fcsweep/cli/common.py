@@ -126,6 +126,16 @@ def trajectory_or_exit(cfg, run, out, config, output) -> Path:
     return traj
 
 
+def run_argument(run, config, output) -> Path:
+    """The trajectory a RUN argument names: the path of a ``trajectory.h5`` as given, else a
+    run id or index of the sweep ``config`` (:func:`trajectory_or_exit`)."""
+    if run.endswith(".h5") and Path(run).is_file():
+        return Path(run)
+    cfg = load(config, output)
+    out = announce(cfg)
+    return trajectory_or_exit(cfg, run, out, config, output)
+
+
 def or_exit(call):
     """``call()``, or exit 2 with the message when the refinement file does not fit the config."""
     try:

@@ -10,7 +10,7 @@ from pathlib import Path
 import click
 
 from fcsweep.cli.common import (CONFIG_ARG, OUTPUT_OPT, analysed, announce, config_arg, err_line, headless, load,
-                                nothing, say, status_rows, trajectory_or_exit, wrong_dir_hint)
+                                nothing, run_argument, say, status_rows, trajectory_or_exit, wrong_dir_hint)
 from fcsweep.config import SweepConfig
 
 
@@ -173,12 +173,7 @@ def movie(run, config, output, fps, every, dpi, out_file):
     from fcsweep.results.figures import movie_run
     from fcsweep.io.failures import results_command
 
-    if run.endswith(".h5") and Path(run).is_file():
-        traj = Path(run)
-    else:
-        cfg = load(config, output)
-        out = announce(cfg)
-        traj = trajectory_or_exit(cfg, run, out, config, output)
+    traj = run_argument(run, config, output)
     try:
         with results_command(say, "--out"):
             path = movie_run(traj, out_file, fps=fps, every=every, dpi=dpi)
@@ -216,12 +211,7 @@ def export(run, config, output, fmt, frames, out_path, unwrapped, polygons, imag
     from fcsweep.io.trajectory import TrajectoryError
     from fcsweep.io.failures import results_command
 
-    if run.endswith(".h5") and Path(run).is_file():
-        traj = Path(run)
-    else:
-        cfg = load(config, output)
-        out = announce(cfg)
-        traj = trajectory_or_exit(cfg, run, out, config, output)
+    traj = run_argument(run, config, output)
     run_id = traj.parent.name if traj.name == "trajectory.h5" else traj.stem
     try:
         with results_command(say, "--out"):
