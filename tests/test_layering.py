@@ -106,12 +106,26 @@ def test_moved_submodules_and_names():
     import fcsweep.analysis.figures.common as old_common
     import fcsweep.results.analyze as analyze
     import fcsweep.results.figures.common as common
-    from fcsweep.results.analyze import analyze_run
-    from fcsweep.io.trajectory import open_trajectory
+    from fcsweep.analysis.pipeline import analyze_run
+    from fcsweep.analysis.trajectory import open_trajectory
     from fcsweep.io.trajectory import open_trajectory as new_open
 
     assert old_common is common and analyze_run is analyze.analyze_run and open_trajectory is new_open
-    from fcsweep.model.observables import OBSERVABLES
+    from fcsweep.io.observables import OBSERVABLES
     from fcsweep.model.observables import OBSERVABLES as table
 
     assert OBSERVABLES is table
+
+
+def test_the_old_pipeline_names_still_import():
+    """What ``fcsweep.analysis.pipeline`` offered before the move: the phase rule's inputs, the
+    frame mean and ``compute_observables`` of an opened trajectory (its old signature)."""
+    from fcsweep.analysis import phase, run_observables
+    from fcsweep.analysis.pipeline import (KTHNY_FIT_KEYS, KTHNY_SCALARS, _frame_mean, cage_evidence,
+                                           compute_observables, equilibrated_frames, solid_test_estimate)
+    from fcsweep.results.analyze import trajectory_observables
+
+    assert compute_observables is trajectory_observables and _frame_mean is run_observables.frame_mean
+    assert cage_evidence is phase.cage_evidence and solid_test_estimate is phase.solid_test_estimate
+    assert equilibrated_frames is run_observables.equilibrated_frames
+    assert set(KTHNY_FIT_KEYS) < set(KTHNY_SCALARS) and "eta_G1" in KTHNY_FIT_KEYS

@@ -16,7 +16,7 @@ import xarray as xr
 from results_sweep import analysed, sweep  # noqa: F401  (fixtures: a 4-run analysed sweep, a copy per test)
 from test_figures import synthetic_dataset, with_statistics
 
-from fcsweep.analysis import figures as plots
+from fcsweep.results import figures as plots
 from fcsweep.analysis.kthny import classify_kthny
 from fcsweep.analysis.phase import (KTHNY_HEXATIC, KTHNY_LIQUID, KTHNY_UNDETERMINED, KTHNY_UNKNOWN, PHASE_FLUID,
                                     PHASE_SOFT_FLUID, PHASE_SOLID, PHASE_UNDETERMINED, PHASE_UNKNOWN, Label,

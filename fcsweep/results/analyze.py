@@ -50,9 +50,11 @@ import h5py
 import numpy as np
 
 from fcsweep import __version__
-from fcsweep.analysis.phase import MIN_CONFIDENCE, RHO_D_PERCOLATION, phase_name
+from fcsweep.analysis.phase import (MIN_CONFIDENCE, RHO_D_PERCOLATION, cage_evidence, phase_evidence,  # noqa: F401
+                                    phase_label, phase_name, solid_test_estimate)
 from fcsweep.analysis.reasons import reason_flags
-from fcsweep.analysis.run_observables import AnalysisError, RunFrames, compute_observables, frame_plan
+from fcsweep.analysis import run_observables
+from fcsweep.analysis.run_observables import AnalysisError, RunFrames, frame_plan
 from fcsweep.analysis.shapes import Q_EDGES, Q_POINTS
 from fcsweep.config.settings import RunSettings
 from fcsweep.io import schema
@@ -61,7 +63,7 @@ from fcsweep.io.machine import worker_layout
 from fcsweep.io.rundir import analysis_is_current
 from fcsweep.io.sweepdir import atomic_write, run_path, run_state
 from fcsweep.io.trajectory import TrajectoryError, open_trajectory
-from fcsweep.model.observables import CURVES, LABELS, REASON_CODES, REASONS, RUN_SCALARS
+from fcsweep.model.observables import CURVES, KTHNY_FITS, LABELS, REASON_CODES, REASONS, RUN_SCALARS
 
 __all__ = ["ANALYSIS_FILE", "ANALYSIS_ERROR_FILE", "DATASET_FILE", "DEFAULT_SETTINGS", "DEFAULT_TRANSIENT",
            "SCALARS", "STATUS_FILE", "TRAJECTORY_FILE", "UNWRITTEN", "AnalysisError", "analyze_run", "analyze_sweep",
@@ -160,7 +162,18 @@ def trajectory_observables(traj, settings: dict, *, curves: bool = True,
     """:func:`fcsweep.analysis.run_observables.compute_observables` of an opened trajectory
     (:func:`fcsweep.io.trajectory.open_trajectory`); see there for ``curves``, ``psi6`` and
     what it returns."""
-    return compute_observables(read_run_frames(traj, settings), settings, curves=curves, psi6=psi6)
+    return run_observables.compute_observables(read_run_frames(traj, settings), settings, curves=curves, psi6=psi6)
+
+
+# The names ``fcsweep.analysis.pipeline`` had before the analysis stopped opening files: that
+# path is an alias of this module (fcsweep/_moved.py), so they keep importing from it.
+# ``compute_observables`` there took an opened trajectory: it is trajectory_observables; the
+# phase rule's inputs (cage_evidence, solid_test_estimate, ...) are imported above.
+compute_observables = trajectory_observables
+_frame_mean = run_observables.frame_mean
+KTHNY_SCALARS = run_observables.KTHNY_SCALARS
+KTHNY_FIT_KEYS = KTHNY_FITS
+equilibrated_frames = run_observables.equilibrated_frames
 
 
 # ------------------------------------------------------------------ one run: files
