@@ -8,7 +8,9 @@ The steps, each on its own frames after the transient:
 
 - shape index ``q`` on up to ``shape_frames`` evenly spaced frames (:func:`shape_observables`);
 - Voronoi defects and clusters on up to ``structure_frames`` frames (:func:`structure_observables`);
-- |Psi6|, G6, G_r and C_G1 and the KTHNY fits and label (:func:`order_observables`);
+- |Psi6|, G6, G_r and C_G1 and the KTHNY fits and label (:func:`order_observables`), the
+  correlations from the pair counts or, with ``settings["correlations"] == "fft"``, by FFT
+  on a grid (:func:`fcsweep.analysis.correlation_fft.pipeline_spacing`);
 - MSD, D_eff and cage breaking over the equilibrated frames (:func:`diffusion_observables`);
 - the phase and percolation labels with their confidence (:func:`label_observables`).
 """
@@ -21,7 +23,7 @@ from typing import Mapping
 
 import numpy as np
 
-from fcsweep.analysis import cage, diffusion, kthny, order, shapes, voronoi
+from fcsweep.analysis import cage, correlation_fft, diffusion, kthny, order, shapes, voronoi
 from fcsweep.analysis.msd import log_lag_indices, msd_curve
 from fcsweep.analysis.phase import classify_percolation, phase_evidence, phase_label
 from fcsweep.analysis.reasons import reason_value
@@ -224,6 +226,10 @@ def order_observables(pos: np.ndarray, boxr: np.ndarray, frames: np.ndarray, set
     """|Psi6| on every structure frame; G6(r), G_r(dx, 0), C_G1(r) on up to
     ``correlation_frames`` of them, and the KTHNY fits and label (:func:`kthny_observables`).
 
+    The correlations are the pair counts of :mod:`fcsweep.analysis.order`, or with
+    ``settings["correlations"] == "fft"`` the same estimators on a grid
+    (:func:`correlation_fft.correlations`, spacing :func:`correlation_fft.pipeline_spacing`).
+
     Returns
     -------
     scalars, curves : dict
@@ -233,16 +239,27 @@ def order_observables(pos: np.ndarray, boxr: np.ndarray, frames: np.ndarray, set
     mods, g6s, grs, cgs = [], [], [], []
     r = dxs = None
     spacing = cage.neighbour_spacing(N, boxr)
-    dr = float(settings["g6_dr"])
+    dr, gdx = float(settings["g6_dr"]), float(settings["gr_dx"])
+    method = settings.get("correlations", "pairs")
+    if method not in ("pairs", "fft"):
+        raise AnalysisError(f"correlations = {method!r}; allowed: pairs, fft")
+    h = correlation_fft.pipeline_spacing(boxr, dr, gdx)
     for f, P in zip(frames, pos) if (psi6 or curves) else ():  # G6 and G_r need Psi6 too
         vn = voronoi.voronoi_neighbors(P, boxr)
         ps = order.psi6(P, boxr, vn.nlist)
         mod, ang = order.global_psi6(ps)
         mods.append(mod)
-        if int(f) in cf:
+        if int(f) in cf and method == "fft":
+            G1 = order.first_shell_vectors(P, boxr, ang, spacing)
+            c = correlation_fft.correlations(P, boxr, psi=ps, G=G1, orientation=ang, dr=dr, dx=gdx, h=h)
+            r, dxs = c.r, c.x
+            g6s.append(c.G6)
+            grs.append(c.Gr)
+            cgs.append(c.C_G1)
+        elif int(f) in cf:
             r, g = order.g6(P, boxr, ps, dr=dr)
             pairs = order.pair_vectors(P, boxr, order.max_range(boxr))  # one query for G_r and C_G1
-            dxs, gr = order.gr_cut(P, boxr, ang, dx=float(settings["gr_dx"]), vectors=pairs)
+            dxs, gr = order.gr_cut(P, boxr, ang, dx=gdx, vectors=pairs)
             G1 = order.first_shell_vectors(P, boxr, ang, spacing)
             _, cg = order.shell_correlation(pairs, G1, dr=dr, r_max=order.max_range(boxr))
             del pairs
