@@ -153,10 +153,14 @@ def compute_observables(run: RunFrames, settings: Mapping, *, curves: bool = Tru
     boxr = run.box / R0  # lengths in units of R0 from here on
     pos = run.positions / R0
     sc, cv, q_start = shape_observables(run, settings)
-    s2, c2, ds = structure_observables(pos, boxr, plan.structure_frames)
+    # one Voronoi tessellation per structure frame serves the defects and Psi6
+    acc = _OrderFrames(pos.shape[1], boxr, plan.structure_frames, settings, curves)
+    sf = plan.structure_frames
+    each = (lambda k, vn: acc.add(sf[k], pos[k], vn)) if (psi6 or curves) else None  # G6, G_r need Psi6
+    s2, c2, ds = structure_observables(pos, boxr, sf, each=each)
     sc.update(s2)
     cv.update(c2)
-    s3, c3 = order_observables(pos, boxr, plan.structure_frames, settings, curves=curves, psi6=psi6)
+    s3, c3 = acc.finish()
     sc.update(s3)
     cv.update(c3)
     starts = ([] if q_start is None else [q_start]) + [plan.structure_frames[ds["rho_d_start"]]]
@@ -203,8 +207,9 @@ def shape_observables(run: RunFrames, settings: Mapping):
     return sc, cv, start
 
 
-def structure_observables(pos: np.ndarray, boxr: np.ndarray, frames: np.ndarray):
-    """Voronoi defect fraction, largest clusters (also with shuffled labels) and cluster sizes.
+def structure_observables(pos: np.ndarray, boxr: np.ndarray, frames: np.ndarray, each=None):
+    """Voronoi defect fraction, largest clusters (also with shuffled labels) and cluster sizes
+    (``each``: called with every frame's tessellation, :func:`voronoi.defect_statistics`).
 
     Returns
     -------
@@ -212,7 +217,7 @@ def structure_observables(pos: np.ndarray, boxr: np.ndarray, frames: np.ndarray)
     stats : dict
         :func:`fcsweep.analysis.voronoi.defect_statistics` (``rho_d_start``, ``n_sides_counts``).
     """
-    ds = voronoi.defect_statistics(pos, boxr, frame_indices=frames)
+    ds = voronoi.defect_statistics(pos, boxr, frame_indices=frames, each=each)
     sc = {}
     for name in ("rho_d", "largest_cluster_fraction", "largest_cluster_fraction_shuffled"):
         sc[name], sc[f"{name}_err"] = ds[name], ds[f"{name}_err"]
@@ -229,60 +234,79 @@ def order_observables(pos: np.ndarray, boxr: np.ndarray, frames: np.ndarray, set
     The correlations are the pair counts of :mod:`fcsweep.analysis.order`, or with
     ``settings["correlations"] == "fft"`` the same estimators on a grid
     (:func:`correlation_fft.correlations`, spacing :func:`correlation_fft.pipeline_spacing`).
+    :func:`compute_observables` feeds the same per-frame step the tessellations of the
+    defect step instead of tessellating again.
 
     Returns
     -------
     scalars, curves : dict
     """
-    N = pos.shape[1]
-    cf = set(evenly(frames, int(settings["correlation_frames"])).tolist()) if curves else set()
-    mods, g6s, grs, cgs = [], [], [], []
-    r = dxs = None
-    spacing = cage.neighbour_spacing(N, boxr)
-    dr, gdx = float(settings["g6_dr"]), float(settings["gr_dx"])
-    method = settings.get("correlations", "pairs")
-    if method not in ("pairs", "fft"):
-        raise AnalysisError(f"correlations = {method!r}; allowed: pairs, fft")
-    h = correlation_fft.pipeline_spacing(boxr, dr, gdx)
+    acc = _OrderFrames(pos.shape[1], boxr, frames, settings, curves)
     for f, P in zip(frames, pos) if (psi6 or curves) else ():  # G6 and G_r need Psi6 too
-        vn = voronoi.voronoi_neighbors(P, boxr)
+        acc.add(f, P, voronoi.voronoi_neighbors(P, boxr))
+    return acc.finish()
+
+
+class _OrderFrames:
+    """The per-frame part of :func:`order_observables` (:meth:`add` each frame's centres and
+    tessellation) and its frame averages (:meth:`finish`)."""
+
+    def __init__(self, N: int, boxr: np.ndarray, frames: np.ndarray, settings: Mapping, curves: bool):
+        self.N, self.boxr, self.curves = N, boxr, curves
+        self.cf = set(evenly(frames, int(settings["correlation_frames"])).tolist()) if curves else set()
+        self.mods, self.g6s, self.grs, self.cgs = [], [], [], []
+        self.r = self.dxs = None
+        self.spacing = cage.neighbour_spacing(N, boxr)
+        self.dr, self.gdx = float(settings["g6_dr"]), float(settings["gr_dx"])
+        self.method = settings.get("correlations", "pairs")
+        if self.method not in ("pairs", "fft"):
+            raise AnalysisError(f"correlations = {self.method!r}; allowed: pairs, fft")
+        self.h = correlation_fft.pipeline_spacing(boxr, self.dr, self.gdx)
+        self.conf = float(settings["label_confidence"])
+
+    def add(self, f, P: np.ndarray, vn) -> None:
+        boxr, dr, spacing = self.boxr, self.dr, self.spacing
         ps = order.psi6(P, boxr, vn.nlist)
         mod, ang = order.global_psi6(ps)
-        mods.append(mod)
-        if int(f) in cf and method == "fft":
+        self.mods.append(mod)
+        if int(f) in self.cf and self.method == "fft":
             G1 = order.first_shell_vectors(P, boxr, ang, spacing)
-            c = correlation_fft.correlations(P, boxr, psi=ps, G=G1, orientation=ang, dr=dr, dx=gdx, h=h)
-            r, dxs = c.r, c.x
-            g6s.append(c.G6)
-            grs.append(c.Gr)
-            cgs.append(c.C_G1)
-        elif int(f) in cf:
-            r, g = order.g6(P, boxr, ps, dr=dr)
+            c = correlation_fft.correlations(P, boxr, psi=ps, G=G1, orientation=ang, dr=dr, dx=self.gdx, h=self.h)
+            self.r, self.dxs = c.r, c.x
+            self.g6s.append(c.G6)
+            self.grs.append(c.Gr)
+            self.cgs.append(c.C_G1)
+        elif int(f) in self.cf:
+            self.r, g = order.g6(P, boxr, ps, dr=dr)
             pairs = order.pair_vectors(P, boxr, order.max_range(boxr))  # one query for G_r and C_G1
-            dxs, gr = order.gr_cut(P, boxr, ang, dx=gdx, vectors=pairs)
+            self.dxs, gr = order.gr_cut(P, boxr, ang, dx=self.gdx, vectors=pairs)
             G1 = order.first_shell_vectors(P, boxr, ang, spacing)
             _, cg = order.shell_correlation(pairs, G1, dr=dr, r_max=order.max_range(boxr))
             del pairs
-            g6s.append(g)
-            grs.append(gr)
-            cgs.append(cg)
-    sc, cv = {}, {}
-    if mods:
-        ta = time_average(np.asarray(mods))
-        sc["psi6"], sc["psi6_err"] = ta.mean, ta.err
-    else:
-        sc["psi6"] = sc["psi6_err"] = np.nan
-    conf = float(settings["label_confidence"])
-    if not curves:
-        sc.update(kthny_observables(None, None, None, None, N, conf, np.nan))
+            self.g6s.append(g)
+            self.grs.append(gr)
+            self.cgs.append(cg)
+
+    def finish(self):
+        sc, cv = {}, {}
+        if self.mods:
+            ta = time_average(np.asarray(self.mods))
+            sc["psi6"], sc["psi6_err"] = ta.mean, ta.err
+        else:
+            sc["psi6"] = sc["psi6_err"] = np.nan
+        N, conf, r, dxs = self.N, self.conf, self.r, self.dxs
+        if not self.curves:
+            sc.update(kthny_observables(None, None, None, None, N, conf, np.nan))
+            return sc, cv
+        g6s, grs, cgs = self.g6s, self.grs, self.cgs
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # bins without pairs in every frame
+            cv["G6"] = (r, np.nanmean(np.asarray(g6s), axis=0) if r.size else r.copy())
+            cv["Gr"] = (dxs, np.mean(np.asarray(grs), axis=0))
+            cv["C_G1"] = (r, np.nanmean(np.asarray(cgs), axis=0) if r.size else r.copy())
+        sc.update(kthny_observables(r, np.asarray(g6s), dxs, np.asarray(grs), N, conf, self.spacing,
+                                    np.asarray(cgs), self.boxr))
         return sc, cv
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # bins without pairs in every frame
-        cv["G6"] = (r, np.nanmean(np.asarray(g6s), axis=0) if r.size else r.copy())
-        cv["Gr"] = (dxs, np.mean(np.asarray(grs), axis=0))
-        cv["C_G1"] = (r, np.nanmean(np.asarray(cgs), axis=0) if r.size else r.copy())
-    sc.update(kthny_observables(r, np.asarray(g6s), dxs, np.asarray(grs), N, conf, spacing, np.asarray(cgs), boxr))
-    return sc, cv
 
 
 def kthny_observables(r, g6_frames, dx, gr_frames, n_cells: int, confidence: float, spacing: float,
