@@ -62,6 +62,10 @@ from fcsweep.analysis.order import bin_centres, max_range
 #: in the pair's own radial bin or a neighbour (``|delta| <= sqrt(2) h = dr``).
 GRID_PER_BIN = np.sqrt(2.0)
 
+#: Most grid cells :func:`pipeline_spacing` allows (2^25: about 1.3 GB of float64 working
+#: memory, ``5 x 8 M`` bytes); reached at N ~ 48 000 at the pipeline's bins and density 0.95.
+MAX_GRID_CELLS = 2 ** 25
+
 #: Rows of displacement grid binned per block (bounds the temporaries to ~ ROWS x ny).
 _ROWS = 256
 
@@ -96,6 +100,22 @@ def make_grid(box, h: float) -> Grid:
     Lx, Ly = float(box[0]), float(box[1])
     n = [scipy.fft.next_fast_len(max(int(np.ceil(L / float(h) - 1e-9)), 1), real=True) for L in (Lx, Ly)]
     return Grid((Lx, Ly), (int(n[0]), int(n[1])))
+
+
+def pipeline_spacing(box, dr: float, dx: float, max_cells: int = MAX_GRID_CELLS) -> float:
+    """Grid spacing of the analysis pipeline: the default ``min(dr, dx) / GRID_PER_BIN``
+    (every pair within a bin of its own) while the grid has at most ``max_cells`` cells,
+    else the spacing of ``max_cells`` cells over the box, so that the memory stays bounded
+    at any N.
+
+    With ``N`` centres at mean spacing ``a`` the coarse spacing is
+    ``h = a sqrt((sqrt(3) / 2) N / max_cells)``: ``a / 6.2`` at N = 10^6 (validated range
+    of the module doc: ``a / 14`` to ``a / 4``).  The curves are then the pair curves
+    smoothed over about ``0.4 h``; once ``h`` exceeds ``dx`` (N of a few 10^5) the strip of
+    ``G_r`` holds no grid displacement in some of its bins (NaN there).
+    """
+    h = min(float(dr), float(dx)) / GRID_PER_BIN
+    return max(h, float(np.sqrt(float(box[0]) * float(box[1]) / float(max_cells))))
 
 
 def cell_index(pos: np.ndarray, grid: Grid) -> np.ndarray:

@@ -8,7 +8,9 @@ The steps, each on its own frames after the transient:
 
 - shape index ``q`` on up to ``shape_frames`` evenly spaced frames (:func:`shape_observables`);
 - Voronoi defects and clusters on up to ``structure_frames`` frames (:func:`structure_observables`);
-- |Psi6|, G6, G_r and C_G1 and the KTHNY fits and label (:func:`order_observables`);
+- |Psi6|, G6, G_r and C_G1 and the KTHNY fits and label (:func:`order_observables`), the
+  correlations from the pair counts or, with ``settings["correlations"] == "fft"``, by FFT
+  on a grid (:func:`fcsweep.analysis.correlation_fft.pipeline_spacing`);
 - MSD, D_eff and cage breaking over the equilibrated frames (:func:`diffusion_observables`);
 - the phase and percolation labels with their confidence (:func:`label_observables`).
 """
@@ -21,7 +23,7 @@ from typing import Mapping
 
 import numpy as np
 
-from fcsweep.analysis import cage, diffusion, kthny, order, shapes, voronoi
+from fcsweep.analysis import cage, correlation_fft, diffusion, kthny, order, shapes, voronoi
 from fcsweep.analysis.msd import log_lag_indices, msd_curve
 from fcsweep.analysis.phase import classify_percolation, phase_evidence, phase_label
 from fcsweep.analysis.reasons import reason_value
@@ -151,10 +153,14 @@ def compute_observables(run: RunFrames, settings: Mapping, *, curves: bool = Tru
     boxr = run.box / R0  # lengths in units of R0 from here on
     pos = run.positions / R0
     sc, cv, q_start = shape_observables(run, settings)
-    s2, c2, ds = structure_observables(pos, boxr, plan.structure_frames)
+    # one Voronoi tessellation per structure frame serves the defects and Psi6
+    acc = _OrderFrames(pos.shape[1], boxr, plan.structure_frames, settings, curves)
+    sf = plan.structure_frames
+    each = (lambda k, vn: acc.add(sf[k], pos[k], vn)) if (psi6 or curves) else None  # G6, G_r need Psi6
+    s2, c2, ds = structure_observables(pos, boxr, sf, each=each)
     sc.update(s2)
     cv.update(c2)
-    s3, c3 = order_observables(pos, boxr, plan.structure_frames, settings, curves=curves, psi6=psi6)
+    s3, c3 = acc.finish()
     sc.update(s3)
     cv.update(c3)
     starts = ([] if q_start is None else [q_start]) + [plan.structure_frames[ds["rho_d_start"]]]
@@ -201,8 +207,9 @@ def shape_observables(run: RunFrames, settings: Mapping):
     return sc, cv, start
 
 
-def structure_observables(pos: np.ndarray, boxr: np.ndarray, frames: np.ndarray):
-    """Voronoi defect fraction, largest clusters (also with shuffled labels) and cluster sizes.
+def structure_observables(pos: np.ndarray, boxr: np.ndarray, frames: np.ndarray, each=None):
+    """Voronoi defect fraction, largest clusters (also with shuffled labels) and cluster sizes
+    (``each``: called with every frame's tessellation, :func:`voronoi.defect_statistics`).
 
     Returns
     -------
@@ -210,7 +217,7 @@ def structure_observables(pos: np.ndarray, boxr: np.ndarray, frames: np.ndarray)
     stats : dict
         :func:`fcsweep.analysis.voronoi.defect_statistics` (``rho_d_start``, ``n_sides_counts``).
     """
-    ds = voronoi.defect_statistics(pos, boxr, frame_indices=frames)
+    ds = voronoi.defect_statistics(pos, boxr, frame_indices=frames, each=each)
     sc = {}
     for name in ("rho_d", "largest_cluster_fraction", "largest_cluster_fraction_shuffled"):
         sc[name], sc[f"{name}_err"] = ds[name], ds[f"{name}_err"]
@@ -224,48 +231,82 @@ def order_observables(pos: np.ndarray, boxr: np.ndarray, frames: np.ndarray, set
     """|Psi6| on every structure frame; G6(r), G_r(dx, 0), C_G1(r) on up to
     ``correlation_frames`` of them, and the KTHNY fits and label (:func:`kthny_observables`).
 
+    The correlations are the pair counts of :mod:`fcsweep.analysis.order`, or with
+    ``settings["correlations"] == "fft"`` the same estimators on a grid
+    (:func:`correlation_fft.correlations`, spacing :func:`correlation_fft.pipeline_spacing`).
+    :func:`compute_observables` feeds the same per-frame step the tessellations of the
+    defect step instead of tessellating again.
+
     Returns
     -------
     scalars, curves : dict
     """
-    N = pos.shape[1]
-    cf = set(evenly(frames, int(settings["correlation_frames"])).tolist()) if curves else set()
-    mods, g6s, grs, cgs = [], [], [], []
-    r = dxs = None
-    spacing = cage.neighbour_spacing(N, boxr)
-    dr = float(settings["g6_dr"])
+    acc = _OrderFrames(pos.shape[1], boxr, frames, settings, curves)
     for f, P in zip(frames, pos) if (psi6 or curves) else ():  # G6 and G_r need Psi6 too
-        vn = voronoi.voronoi_neighbors(P, boxr)
+        acc.add(f, P, voronoi.voronoi_neighbors(P, boxr))
+    return acc.finish()
+
+
+class _OrderFrames:
+    """The per-frame part of :func:`order_observables` (:meth:`add` each frame's centres and
+    tessellation) and its frame averages (:meth:`finish`)."""
+
+    def __init__(self, N: int, boxr: np.ndarray, frames: np.ndarray, settings: Mapping, curves: bool):
+        self.N, self.boxr, self.curves = N, boxr, curves
+        self.cf = set(evenly(frames, int(settings["correlation_frames"])).tolist()) if curves else set()
+        self.mods, self.g6s, self.grs, self.cgs = [], [], [], []
+        self.r = self.dxs = None
+        self.spacing = cage.neighbour_spacing(N, boxr)
+        self.dr, self.gdx = float(settings["g6_dr"]), float(settings["gr_dx"])
+        self.method = settings.get("correlations", "pairs")
+        if self.method not in ("pairs", "fft"):
+            raise AnalysisError(f"correlations = {self.method!r}; allowed: pairs, fft")
+        self.h = correlation_fft.pipeline_spacing(boxr, self.dr, self.gdx)
+        self.conf = float(settings["label_confidence"])
+
+    def add(self, f, P: np.ndarray, vn) -> None:
+        boxr, dr, spacing = self.boxr, self.dr, self.spacing
         ps = order.psi6(P, boxr, vn.nlist)
         mod, ang = order.global_psi6(ps)
-        mods.append(mod)
-        if int(f) in cf:
-            r, g = order.g6(P, boxr, ps, dr=dr)
+        self.mods.append(mod)
+        if int(f) in self.cf and self.method == "fft":
+            G1 = order.first_shell_vectors(P, boxr, ang, spacing)
+            c = correlation_fft.correlations(P, boxr, psi=ps, G=G1, orientation=ang, dr=dr, dx=self.gdx, h=self.h)
+            self.r, self.dxs = c.r, c.x
+            self.g6s.append(c.G6)
+            self.grs.append(c.Gr)
+            self.cgs.append(c.C_G1)
+        elif int(f) in self.cf:
+            self.r, g = order.g6(P, boxr, ps, dr=dr)
             pairs = order.pair_vectors(P, boxr, order.max_range(boxr))  # one query for G_r and C_G1
-            dxs, gr = order.gr_cut(P, boxr, ang, dx=float(settings["gr_dx"]), vectors=pairs)
+            self.dxs, gr = order.gr_cut(P, boxr, ang, dx=self.gdx, vectors=pairs)
             G1 = order.first_shell_vectors(P, boxr, ang, spacing)
             _, cg = order.shell_correlation(pairs, G1, dr=dr, r_max=order.max_range(boxr))
             del pairs
-            g6s.append(g)
-            grs.append(gr)
-            cgs.append(cg)
-    sc, cv = {}, {}
-    if mods:
-        ta = time_average(np.asarray(mods))
-        sc["psi6"], sc["psi6_err"] = ta.mean, ta.err
-    else:
-        sc["psi6"] = sc["psi6_err"] = np.nan
-    conf = float(settings["label_confidence"])
-    if not curves:
-        sc.update(kthny_observables(None, None, None, None, N, conf, np.nan))
+            self.g6s.append(g)
+            self.grs.append(gr)
+            self.cgs.append(cg)
+
+    def finish(self):
+        sc, cv = {}, {}
+        if self.mods:
+            ta = time_average(np.asarray(self.mods))
+            sc["psi6"], sc["psi6_err"] = ta.mean, ta.err
+        else:
+            sc["psi6"] = sc["psi6_err"] = np.nan
+        N, conf, r, dxs = self.N, self.conf, self.r, self.dxs
+        if not self.curves:
+            sc.update(kthny_observables(None, None, None, None, N, conf, np.nan))
+            return sc, cv
+        g6s, grs, cgs = self.g6s, self.grs, self.cgs
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # bins without pairs in every frame
+            cv["G6"] = (r, np.nanmean(np.asarray(g6s), axis=0) if r.size else r.copy())
+            cv["Gr"] = (dxs, np.mean(np.asarray(grs), axis=0))
+            cv["C_G1"] = (r, np.nanmean(np.asarray(cgs), axis=0) if r.size else r.copy())
+        sc.update(kthny_observables(r, np.asarray(g6s), dxs, np.asarray(grs), N, conf, self.spacing,
+                                    np.asarray(cgs), self.boxr))
         return sc, cv
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # bins without pairs in every frame
-        cv["G6"] = (r, np.nanmean(np.asarray(g6s), axis=0) if r.size else r.copy())
-        cv["Gr"] = (dxs, np.mean(np.asarray(grs), axis=0))
-        cv["C_G1"] = (r, np.nanmean(np.asarray(cgs), axis=0) if r.size else r.copy())
-    sc.update(kthny_observables(r, np.asarray(g6s), dxs, np.asarray(grs), N, conf, spacing, np.asarray(cgs), boxr))
-    return sc, cv
 
 
 def kthny_observables(r, g6_frames, dx, gr_frames, n_cells: int, confidence: float, spacing: float,

@@ -135,7 +135,7 @@ def shuffled_defects(defect: np.ndarray, frame_index: int) -> np.ndarray:
     return rng.permutation(np.asarray(defect, dtype=bool))
 
 
-def defect_statistics(frames_pos, box, frame_indices=None) -> dict:
+def defect_statistics(frames_pos, box, frame_indices=None, each=None) -> dict:
     """Defect fraction and clusters averaged over frames.
 
     Parameters
@@ -145,6 +145,9 @@ def defect_statistics(frames_pos, box, frame_indices=None) -> dict:
     frame_indices : array_like of int, shape (F,), optional
         Trajectory index of each frame, the seed of its label permutation
         (:func:`shuffled_defects`); default ``0 .. F-1``.
+    each : callable, optional
+        Called as ``each(f, vn)`` with every frame's :class:`VoronoiNeighbors` (``f`` in
+        ``0 .. F-1``), so that another per-frame step reuses the tessellation.
 
     Returns
     -------
@@ -170,6 +173,8 @@ def defect_statistics(frames_pos, box, frame_indices=None) -> dict:
     sides = np.zeros(13, dtype=np.int64)
     for f in range(F):
         vn = voronoi_neighbors(frames_pos[f], box)
+        if each is not None:
+            each(f, vn)
         d = defect_mask(vn.n_sides)
         rho[f] = d.mean()
         sizes = defect_clusters(d, vn.i, vn.j)

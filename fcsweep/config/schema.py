@@ -6,7 +6,7 @@ from typing import Any
 
 from fcsweep.config.limits import MAX_RUNS, MAX_STEPS
 from fcsweep.config.params import _allowed
-from fcsweep.config.settings import COMPRESSIONS, FIELDS, MODEL_DEFAULTS
+from fcsweep.config.settings import COMPRESSIONS, CORRELATIONS, FIELDS, MODEL_DEFAULTS
 from fcsweep.model.observables import UNTIL_OBSERVABLES
 from fcsweep.model.parameters import INT_PARAMS, PARAMETERS, STR_PARAMS
 
@@ -99,6 +99,8 @@ def json_schema() -> dict[str, Any]:
                                      "description": "probability a label needs (default 0.95)"},
                 "percolation_threshold": {"type": "number", "exclusiveMinimum": 0, "exclusiveMaximum": 1,
                                           "description": "rho_d above it is percolated (default 0.5)"},
+                "correlations": {"enum": list(CORRELATIONS),
+                                 "description": "G6, C_G1, G_r by pair counts or by FFT (default pairs)"},
             }),
         }, ("output", "grid", "run")),
     }

@@ -30,11 +30,16 @@ RUN_KEYS = ("steps", "sample_every", "checkpoint_every", "transient", "until")
 UNTIL_KEYS = ("check_every", "min_steps", "confidence", "rel_error")
 #: Default ``run.until.confidence``: both labels at 95 % probability.
 UNTIL_CONFIDENCE = 0.95
-ANALYSIS_KEYS = ("label_confidence", "percolation_threshold")
+ANALYSIS_KEYS = ("label_confidence", "percolation_threshold", "correlations")
 #: Default ``analysis.label_confidence``: the probability a phase, percolation or KTHNY label needs.
 LABEL_CONFIDENCE = 0.95
 #: Default ``analysis.percolation_threshold``: rho_d above it is percolated (the paper's 1/2).
 PERCOLATION_THRESHOLD = 0.5
+#: Allowed ``analysis.correlations``: how G6, C_G1 and G_r are computed, ``pairs`` (the pair
+#: counts, O(N^2) per frame; the reference) or ``fft`` (on a grid by FFT, O(N log N)).
+CORRELATIONS = ("pairs", "fft")
+#: Default ``analysis.correlations``; at it the key is left out of the stored settings.
+DEFAULT_CORRELATIONS = "pairs"
 OUTPUT_KEYS = ("dir", "fields", "compression", "compression_level")
 RANGE_KEYS = ("start", "stop", "num", "log")
 
@@ -70,15 +75,25 @@ class AnalysisSettings:
 
     ``label_confidence`` (0.5 < x < 1) is the probability a label needs, else it is
     undetermined; ``percolation_threshold`` (0 < x < 1) the rho_d above which a run or
-    point is percolated.
+    point is percolated; ``correlations`` (one of :data:`CORRELATIONS`) how G6, C_G1 and
+    G_r are computed.
     """
 
     label_confidence: float = LABEL_CONFIDENCE
     percolation_threshold: float = PERCOLATION_THRESHOLD
+    correlations: str = DEFAULT_CORRELATIONS
 
-    def as_dict(self) -> dict[str, float]:
-        """The analysis settings these keys set (names of the pipeline's settings)."""
-        return {"label_confidence": self.label_confidence, "percolation_threshold": self.percolation_threshold}
+    def as_dict(self) -> dict[str, Any]:
+        """The analysis settings these keys set (names of the pipeline's settings).
+
+        ``correlations`` is left out at its default, so that the settings stored in
+        analysis.h5 and trajectory files before the key existed stay equal to these.
+        """
+        out: dict[str, Any] = {"label_confidence": self.label_confidence,
+                               "percolation_threshold": self.percolation_threshold}
+        if self.correlations != DEFAULT_CORRELATIONS:
+            out["correlations"] = self.correlations
+        return out
 
 
 #: Default fraction of recorded frames discarded at the start of every analysis

@@ -15,8 +15,8 @@ from fcsweep.config.errors import _FAILED, UNCHECKED, ConfigError, _Problems, _i
 from fcsweep.config.limits import (MAX_RUNS, MAX_STEPS, _check_output_path, _check_run_count,
                                    _check_run_length)
 from fcsweep.config.params import PARAM_RANGES, _allowed, _canon_value, _check_param
-from fcsweep.config.settings import (ANALYSIS_KEYS, COMPRESSIONS, DEFAULT_FIELDS, DEFAULT_TRANSIENT, FIELDS,
-                                     LABEL_CONFIDENCE, MODEL_DEFAULTS, OUTPUT_KEYS, PERCOLATION_THRESHOLD, RANGE_KEYS,
+from fcsweep.config.settings import (ANALYSIS_KEYS, COMPRESSIONS, CORRELATIONS, DEFAULT_CORRELATIONS, DEFAULT_FIELDS,
+                                     DEFAULT_TRANSIENT, FIELDS, LABEL_CONFIDENCE, MODEL_DEFAULTS, OUTPUT_KEYS, PERCOLATION_THRESHOLD, RANGE_KEYS,
                                      RUN_KEYS, TOP_KEYS, UNTIL_CONFIDENCE, UNTIL_KEYS, AnalysisSettings, RunSettings,
                                      StoreSettings, SweepConfig, UntilSettings)
 from fcsweep.model.observables import UNTIL_OBSERVABLES
@@ -314,9 +314,13 @@ def _analysis_section(analysis_in, problems: _Problems):
     if thr is not _FAILED and not 0.0 < thr < 1.0:
         problems.add(ConfigError(f"analysis.percolation_threshold = {thr!r} is out of range; allowed "
                                  "0 < percolation_threshold < 1 (defect fraction rho_d)"))
+    corr = analysis_in.get("correlations", DEFAULT_CORRELATIONS)
+    if corr not in CORRELATIONS:
+        problems.add(ConfigError(f"analysis.correlations = {_show(corr)} is not allowed; allowed: "
+                                 f"{', '.join(CORRELATIONS)} (pair counts, or by FFT on a grid)"))
     if problems.count > first:
         return _FAILED
-    return AnalysisSettings(float(conf), float(thr))
+    return AnalysisSettings(float(conf), float(thr), str(corr))
 
 
 def _run_section(run_in, problems: _Problems):

@@ -32,7 +32,11 @@ Analysis settings (``DEFAULT_SETTINGS``; stored with every result):
 - labels need the probability ``label_confidence`` (default 0.95; :mod:`fcsweep.analysis.phase`),
   and a run is percolated where rho_d exceeds ``percolation_threshold`` (default 1/2); the
   config's ``analysis`` section sets both (:func:`config_settings`);
-- lengths of G6(r) and Gr(dx, 0) in units of R0, bin widths ``g6_dr`` and ``gr_dx``.
+- lengths of G6(r) and Gr(dx, 0) in units of R0, bin widths ``g6_dr`` and ``gr_dx``;
+- ``correlations`` (:data:`OPTIONAL_SETTINGS`, the config's ``analysis.correlations``):
+  G6, C_G1 and G_r from the pair counts (``pairs``, the default) or by FFT on a grid
+  (``fft``, :mod:`fcsweep.analysis.correlation_fft`).  It is stored only where it is not
+  the default, so analysis.h5 files written before it existed stay current.
 """
 
 from __future__ import annotations
@@ -56,7 +60,7 @@ from fcsweep.analysis.reasons import reason_flags
 from fcsweep.analysis import run_observables
 from fcsweep.analysis.run_observables import AnalysisError, RunFrames, frame_plan
 from fcsweep.analysis.shapes import Q_EDGES, Q_POINTS
-from fcsweep.config.settings import RunSettings
+from fcsweep.config.settings import CORRELATIONS, DEFAULT_CORRELATIONS, RunSettings
 from fcsweep.io import schema
 from fcsweep.io.failures import Terminated, WriteFailure, advice, remove_stale
 from fcsweep.io.machine import worker_layout
@@ -66,6 +70,7 @@ from fcsweep.io.trajectory import TrajectoryError, open_trajectory
 from fcsweep.model.observables import CURVES, KTHNY_FITS, LABELS, REASON_CODES, REASONS, RUN_SCALARS
 
 __all__ = ["ANALYSIS_FILE", "ANALYSIS_ERROR_FILE", "DATASET_FILE", "DEFAULT_SETTINGS", "DEFAULT_TRANSIENT",
+           "OPTIONAL_SETTINGS",
            "SCALARS", "STATUS_FILE", "TRAJECTORY_FILE", "UNWRITTEN", "AnalysisError", "analyze_run", "analyze_sweep",
            "config_settings", "label_summary", "read_analysis", "read_run_frames", "settings_with",
            "trajectory_observables"]
@@ -101,6 +106,10 @@ DEFAULT_SETTINGS = {
     "gr_dx": 0.2,
 }
 
+#: Settings stored (and compared, :func:`fcsweep.io.rundir.analysis_is_current`) only where
+#: they differ from these defaults: the settings of files written before they existed hold.
+OPTIONAL_SETTINGS = {"correlations": DEFAULT_CORRELATIONS}
+
 #: Scalar observables stored as attributes of ``/observables`` in analysis.h5: the per-run
 #: numbers and label codes of the observable table (:mod:`fcsweep.model.observables`);
 #: beside them the label explanations ``REASONS`` as strings.
@@ -108,12 +117,23 @@ SCALARS = RUN_SCALARS + LABELS
 
 
 def settings_with(overrides=None, *, transient=None) -> dict:
-    """Analysis settings: the defaults updated by ``overrides`` (unknown keys rejected)."""
+    """Analysis settings: the defaults updated by ``overrides`` (unknown keys rejected).
+
+    A key of :data:`OPTIONAL_SETTINGS` is present only where it differs from its default.
+    """
     s = json.loads(json.dumps(DEFAULT_SETTINGS))
     for k, v in dict(overrides or {}).items():
+        if k in OPTIONAL_SETTINGS:
+            if v == OPTIONAL_SETTINGS[k]:
+                s.pop(k, None)
+            else:
+                s[k] = v
+            continue
         if k not in s:
-            raise ValueError(f"unknown analysis setting {k!r}; allowed: {sorted(s)}")
+            raise ValueError(f"unknown analysis setting {k!r}; allowed: {sorted([*s, *OPTIONAL_SETTINGS])}")
         s[k] = v
+    if s.get("correlations", DEFAULT_CORRELATIONS) not in CORRELATIONS:
+        raise ValueError(f"correlations = {s['correlations']!r}; allowed: {', '.join(CORRELATIONS)}")
     if transient is not None:
         s["transient"] = float(transient)
     if not 0.0 <= float(s["transient"]) < 1.0:
@@ -123,7 +143,8 @@ def settings_with(overrides=None, *, transient=None) -> dict:
 
 def config_settings(config) -> dict:
     """The analysis settings a sweep's config sets: its ``analysis`` section
-    (``label_confidence``, ``percolation_threshold``); {} for a config without one."""
+    (``label_confidence``, ``percolation_threshold``, ``correlations`` where not the
+    default); {} for a config without one."""
     analysis = getattr(config, "analysis", None)
     return dict(analysis.as_dict()) if analysis is not None else {}
 
