@@ -18,7 +18,8 @@ from fcsweep.config.params import PARAM_RANGES, _allowed, _canon_value, _check_p
 from fcsweep.config.settings import (ANALYSIS_KEYS, COMPRESSIONS, CORRELATIONS, DEFAULT_CORRELATIONS, DEFAULT_FIELDS,
                                      DEFAULT_TRANSIENT, FIELDS, LABEL_CONFIDENCE, MODEL_DEFAULTS, OUTPUT_KEYS,
                                      PERCOLATION_THRESHOLD, RANGE_KEYS, RUN_KEYS, TOP_KEYS, UNTIL_CONFIDENCE,
-                                     UNTIL_KEYS, AnalysisSettings, RunSettings, StoreSettings, SweepConfig, UntilSettings)
+                                     UNTIL_KEYS, AnalysisSettings, RunSettings, StoreSettings, SweepConfig,
+                                     UntilSettings)
 from fcsweep.model.observables import UNTIL_OBSERVABLES
 from fcsweep.config.yaml12 import MAX_CONFIG_BYTES, MAX_NESTING, _check_structure, _read_text, _UniqueKeyLoader
 from fcsweep.model.parameters import INT_PARAMS, STR_PARAMS
