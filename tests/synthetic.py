@@ -94,25 +94,29 @@ def random_sequential_discs(n, area_fraction, rng, radius=0.5):
     return pts, (L, L)
 
 
-def aligned_mosaic(n, domain, rng, *, tilt=0.03, jitter=0.05, a=1.0):
+def aligned_mosaic(n, domain, rng, *, tilt=0.03, jitter=0.05, a=1.0, random_orientation=False):
     """Hexatic-like configuration: the box of an n x n triangular lattice cut into periodic
     Voronoi domains (about ``domain`` spacings across), each filled with a triangular
     lattice of one common orientation (+- ``tilt`` rad, Gaussian) but its own random
     offset, then jittered (sd ``jitter * a``); of two cells closer than 0.7 a across a
     domain wall one is dropped. Bond order stays long-ranged, translational order dies
-    over a domain. Returns (positions, box)."""
+    over a domain. With ``random_orientation`` each domain's lattice is turned by its own
+    uniform angle about the domain's seed: a polycrystal, whose bond order dies over a
+    domain too. Returns (positions, box)."""
     from scipy.spatial import cKDTree
 
     L = np.array([n * a, n * a * np.sqrt(3) / 2])
     seeds = rng.uniform(0, 1, (max(1, int(round(L.prod() / domain ** 2))), 2)) * L
     owner = cKDTree(seeds, boxsize=L)
-    i, j = np.meshgrid(np.arange(-2, n + 3), np.arange(-2, n + 3), indexing="ij")
+    lo, hi = (-n - 2, 2 * n + 3) if random_orientation else (-2, n + 3)
+    i, j = np.meshgrid(np.arange(lo, hi), np.arange(lo, hi), indexing="ij")
     base = np.stack([(i + 0.5 * (j % 2)).ravel(), (j * np.sqrt(3) / 2).ravel()], 1) * a
     parts = []
     for k in range(len(seeds)):
-        th = rng.normal(scale=tilt)
+        th = rng.uniform(0, np.pi / 3) if random_orientation else rng.normal(scale=tilt)
         R = np.array([[np.cos(th), -np.sin(th)], [np.sin(th), np.cos(th)]])
-        p = base @ R.T + rng.uniform(0, a, 2)
+        c = seeds[k] if random_orientation else np.zeros(2)
+        p = (base - c) @ R.T + c + rng.uniform(0, a, 2)
         p = p[np.all((p >= 0) & (p < L), axis=1)]
         parts.append(p[owner.query(p)[1] == k])
     p = np.concatenate(parts)

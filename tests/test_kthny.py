@@ -193,6 +193,39 @@ def test_g6_fit_starts_beyond_the_first_inter_shell_minimum():
     assert abs(start - np.sqrt(3)) < 0.1
 
 
+def _shelled_g6(envelope, rng, *, a=1.9, err=0.005):
+    """A G6 curve as a dense packing draws it: sharp shells at the triangular lattice's
+    distances up to 3 a with dips to zero between them (pairs there sit at defects), the
+    shells blurred beyond; ``envelope(r)`` times that, plus noise of sd ``err``."""
+    r = np.arange(0.05, 59.0, 0.1)
+    shells = a * np.sqrt([1, 3, 4, 7, 9, 12, 13])
+    peaks = np.max([np.exp(-0.5 * ((r - s) / (0.08 * a)) ** 2) for s in shells], axis=0)
+    y = envelope(r) * np.where(r < 3.2 * a, peaks, 1.0) + rng.normal(scale=err, size=r.size)
+    y[r < 0.8 * a] = np.nan
+    return r, y, np.full(r.size, err)
+
+
+def test_a_polycrystal_dipping_between_shells_is_not_hexatic():
+    """G6 with its inter-shell dips falling into the noise is tested against r^(-1/4) drawn
+    from a shell peak, not from a dip. A polycrystal (G6 from 0.75 to 0.02 over 16 spacings,
+    as the disordered start at eta = 0.1, v0 = 0.01, N = 4900 measured) reads liquid; the
+    same shells on an r^(-0.1) envelope (a hexatic) stay consistent with the bound. The bound
+    drawn from the dip at 4.25 read that run P(eta_6 <= 1/4) = 1, 'hexatic (1.000)'."""
+    rng = np.random.default_rng(12)
+    dx, Gr = np.arange(0.05, 59.0, 0.1), np.ones(590)
+    for env, liquid in ((lambda r: 0.75 * np.exp(-(r - 1.9) / 7.6), True), (lambda r: 0.75 * (r / 1.9) ** -0.1, False)):
+        r, y, e = _shelled_g6(env, rng)
+        fits = kthny.kthny_fits(r, y, dx, Gr, G6_err=e, spacing=1.9)
+        if liquid:
+            assert fits["six_sunk"] and fits["six_r_end"] < 6.0  # the dip at 2.3 a sinks it
+            assert fits["six_p_bound"] < 1e-3
+            lab = kthny.classify_kthny(fits, n_cells=4900)
+            assert lab.code == KTHNY_LIQUID and lab.confidence > 0.99, lab.reason
+        else:
+            p = fits["six_p_bound"] if fits["six_sunk"] else kthny._p_below(fits["eta_6"], fits["eta_6_err"], 0.25)
+            assert p > 0.95, fits
+
+
 @functools.cache
 def _harmonic(n, eta, frames, seed):
     return _curves(harmonic_crystal(n, eta, np.random.default_rng(seed), frames=frames))

@@ -32,7 +32,7 @@ exponential decay over the fitted range reads as a large effective exponent, so
 each Gaussian in the fitted exponent with its total error. A curve that falls into its
 noise (a point less than 2 errors above zero) within half the fitted range is not fitted;
 it is tested against the slowest decay its bound allows, ``y_ref (r / r_ref)^(-1/3)``
-(``-1/4`` for G6) drawn from its last point 5 pooled errors above zero, and
+(``-1/4`` for G6) drawn from its point 5 pooled errors above zero that puts it highest, and
 P(eta <= bound) = Phi(d / s) with ``d`` the mean excess of the points after the fall over
 that curve and ``s`` its error (:func:`_p_above_bound`). Without frame errors on C_G1 (one
 frame) or without C_G1 the translational order is not decided, so such a curve can only
@@ -72,7 +72,7 @@ ASYMPTOTIC = 0.25
 RANGES = (0.6, 0.75, 1.0)
 #: Fewest points a decay fit needs.
 MIN_POINTS = 3
-#: A curve that fell into its noise is tested against its bound drawn from its last point
+#: A curve that fell into its noise is tested against its bound drawn from a point
 #: this many errors above zero.
 REF_SIGMAS = 5.0
 
@@ -371,9 +371,13 @@ def _clear(y, e):
 def _p_above_bound(x, y, e, bound: float, r_min: float, r_max: float) -> float:
     """Probability that a curve which fell into its noise still decays no faster than ``r^(-bound)``.
 
-    The slowest decay the bound allows is drawn from the last point ``REF_SIGMAS`` errors
-    above zero before the curve fell into its noise within ``[r_min, r_max]`` (``x_ref``,
-    ``y_ref``; it may lie before ``r_min``): ``b(r) = y_ref (r / x_ref)^(-bound)``. Over
+    The slowest decay the bound allows is drawn from a point ``REF_SIGMAS`` errors above
+    zero before the curve fell into its noise within ``[r_min, r_max]`` (``x_ref``,
+    ``y_ref``): ``b(r) = y_ref (r / x_ref)^(-bound)``, from the point of the fitted range
+    whose ``b`` lies highest (a shell peak, not an inter-shell dip), or without one there
+    from the last such point before ``r_min``.  A bound drawn from a dip lies below the
+    next shells: the G6 of a polycrystal (bond order lost over ~10 spacings, 0.7 to 0.02
+    over the box) then read as decaying no faster than ``r^(-1/4)``.  Over
     the points from the fall to ``r_max`` the weighted mean excess ``d`` of the data over
     ``b`` has the error ``s`` (the points' errors pooled, or without them the scatter of
     those points, and the error of ``y_ref`` carried along ``b``); the probability is
@@ -406,7 +410,8 @@ def _p_above_bound(x, y, e, bound: float, r_min: float, r_max: float) -> float:
     ref = np.flatnonzero(y[:stop] > REF_SIGMAS * sig)
     if ref.size == 0 or not noise > 0:
         return float("nan")
-    k = int(ref[-1])
+    in_fit = ref[ref >= first]
+    k = int(in_fit[np.argmax(y[in_fit] * x[in_fit] ** bound)]) if in_fit.size else int(ref[-1])
     shape = (x[tail] / x[k]) ** (-bound)
     mean = float(np.mean(y[tail] - y[k] * shape))
     s = float(np.sqrt(noise ** 2 / shape.size + (sig[k] * np.mean(shape)) ** 2))
@@ -449,7 +454,7 @@ def classify_kthny(fits: dict, *, min_confidence: float = MIN_CONFIDENCE, n_cell
                      f"N = {n_cells} < {MIN_CELLS}: C_G1 and G6 need distances up to half a box of at least "
                      f"{MIN_CELLS} cells", "too_few_cells")
     # a curve sunk into its noise is tested against the slowest decay its bound allows
-    # (r^(-1/4) or r^(-1/3) from its last point 5 errors above zero), not taken as short-ranged outright
+    # (r^(-1/4) or r^(-1/3) drawn from a point 5 errors above zero), not taken as short-ranged outright
     if fits.get("six_sunk"):
         p6 = fits.get("six_p_bound", 0.0)
         if not np.isfinite(p6):
