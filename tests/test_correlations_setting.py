@@ -61,6 +61,7 @@ def test_the_default_leaves_stored_settings_unchanged(tmp_path):
     old = tmp_path / "analysis.h5"
     with h5py.File(old, "w") as f:
         f.attrs[schema.ANALYSIS_SETTINGS_ATTR] = json.dumps(DEFAULT_SETTINGS, sort_keys=True)
+        f.attrs[schema.LABEL_RULES_ATTR] = schema.LABEL_RULES
     assert settings_with() == DEFAULT_SETTINGS == settings_with({"correlations": "pairs"})
     assert settings_with(config_settings(parse_config(CONFIG))) == DEFAULT_SETTINGS
     assert analysis_is_current(old, settings=settings_with({"correlations": "pairs"}))

@@ -18,10 +18,12 @@ from fcsweep.sweep.options import SweepOptions
 from fcsweep.sweep.status import STATES, analysis_state, summary_line
 
 
-def _analysis(run_dir, settings: dict) -> None:
+def _analysis(run_dir, settings: dict, rules: int | None = schema.LABEL_RULES) -> None:
     run_dir.mkdir(parents=True, exist_ok=True)
     with h5py.File(run_dir / schema.ANALYSIS, "w") as f:
         f.attrs[schema.ANALYSIS_SETTINGS_ATTR] = json.dumps(settings, sort_keys=True)
+        if rules is not None:
+            f.attrs[schema.LABEL_RULES_ATTR] = rules
 
 
 def test_displayed_states_are_the_schema_states():
@@ -58,6 +60,17 @@ def test_analysis_is_current_one_rule(tmp_path):
     path.write_bytes(b"not hdf5")
     os.utime(traj, (t - 10, t - 10))
     assert not analysis_is_current(path, traj, settings=settings) and analysis_state(run, 0.2) == "stale"
+
+
+def test_an_analysis_of_former_label_rules_is_stale(tmp_path):
+    """Same settings, but made before the last label-rule change (or before revisions were
+    recorded): stale, so `fcsweep analyze` relabels it."""
+    settings = {"transient": 0.2, "label_confidence": 0.95}
+    for rules in (None, schema.LABEL_RULES - 1):
+        run = tmp_path / f"run{rules}"
+        _analysis(run, settings, rules)
+        assert not analysis_is_current(run / schema.ANALYSIS, settings=settings)
+        assert analysis_state(run, 0.2, settings) == "stale"
 
 
 def test_sweep_options_are_one_frozen_record():

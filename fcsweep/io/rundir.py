@@ -312,8 +312,9 @@ def analysis_is_current(analysis, trajectory=None, *, settings: Mapping[str, Any
     ``fcsweep status`` (analysed ``yes`` / ``stale``) and of ``fcsweep analyze`` (skip or
     recompute).
 
-    It is current when it exists and can be read, is not older than ``trajectory`` (when
-    given and present), and was made with ``settings`` (when given: equal dicts) or
+    It is current when it exists and can be read, was made with the current label rules
+    (``schema.LABEL_RULES``), is not older than ``trajectory`` (when given and present),
+    and was made with ``settings`` (when given: equal dicts) or
     else, when ``transient`` is given, with that transient (a file that records none
     counts as made with it).
 
@@ -342,7 +343,10 @@ def analysis_is_current(analysis, trajectory=None, *, settings: Mapping[str, Any
             return False
         with h5py.File(analysis, "r", locking=False) as f:
             used = json.loads(f.attrs.get(schema.ANALYSIS_SETTINGS_ATTR, "{}"))
+            rules = int(f.attrs.get(schema.LABEL_RULES_ATTR, 0))
     except (OSError, ValueError):
+        return False
+    if rules != schema.LABEL_RULES:
         return False
     if settings is not None:
         return used == dict(settings)

@@ -11,6 +11,12 @@ LOCK = "run.lock"
 ANALYSIS = "analysis.h5"
 #: Attribute of ``analysis.h5`` holding the analysis settings it was made with (JSON).
 ANALYSIS_SETTINGS_ATTR = "settings_json"
+#: Attribute of ``analysis.h5`` holding the revision of the label rules it was made with.
+LABEL_RULES_ATTR = "label_rules"
+#: Revision of the label rules: raised whenever a rule change can alter the labels of data
+#: already analysed, so that such analyses read as stale and ``fcsweep analyze`` redoes them
+#: (2: the KTHNY bound of a curve in its noise drawn from its shell peak, 2026-11-25).
+LABEL_RULES = 2
 #: Written by a failed analysis (``fcsweep.results.analyze.ANALYSIS_ERROR_FILE``).
 ANALYSIS_ERROR = "analysis_error.txt"
 #: File names inside ``<output>/``: the aggregated dataset and the points ``fcsweep refine`` added.

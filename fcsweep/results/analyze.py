@@ -223,6 +223,7 @@ def _write_h5(tmp: Path, traj, settings, sc, cv, extra) -> None:
         f.attrs["created"] = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
         f.attrs["source"] = str(traj.path)
         f.attrs["settings_json"] = json.dumps(settings, sort_keys=True)
+        f.attrs[schema.LABEL_RULES_ATTR] = schema.LABEL_RULES
         f.attrs["parameters_json"] = json.dumps(traj.params, sort_keys=True, default=str)
         f.attrs["run_id"] = str(traj.params.get("run_id", ""))
         g = f.create_group("observables")
