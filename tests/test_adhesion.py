@@ -137,7 +137,7 @@ def test_adhered_discs_reach_the_derived_contact_and_it_grows_with_strength():
     chords = []
     for gamma in (0.05, 0.1, 0.2):
         d_star = _disc_balance(gamma, delta)
-        d, _, _ = _relax_pair(gamma, delta, 2.0 + 0.5 * delta, K=160, steps=2000, dt=1e-2)
+        d, _, _ = _relax_pair(gamma, delta, 2.0 + 0.5 * delta, K=160, steps=2000, dt=2e-3)
         chord, chord_star = 2 * np.sqrt(1 - d * d / 4), 2 * np.sqrt(1 - d_star * d_star / 4)
         assert d < 2.0  # pulled into contact
         assert chord == pytest.approx(chord_star, rel=0.02)
@@ -157,3 +157,66 @@ def test_deformable_pair_flattens_more_with_stronger_adhesion():
     assert depth[0] == pytest.approx(-0.05, abs=1e-12)
     assert depth[0] < depth[1] < depth[2]
     assert flat[0] == 0.0 and flat[1] < flat[2]
+
+
+SWEEP = """
+output: {out}
+seed: 5
+grid:
+  v0: [0.03]
+  {grid}
+model: {{N: 16, eta: 0.1, quadrature: binary{model}}}
+run: {{steps: 40, sample_every: 20, checkpoint_every: 20}}
+"""
+
+
+def test_adhesion_zero_keeps_run_ids_seeds_and_trajectory(tmp_path):
+    """A config with ``adhesion: 0`` (and the default range) written out has the run ids
+    and seeds of one without the keys, and its run is the same to the last bit."""
+    import h5py
+
+    from fcsweep.config import parse_config
+    from fcsweep.io.h5md import read_parameters
+    from fcsweep.sweep.executors import run_sweep
+
+    plain = parse_config(SWEEP.format(out=tmp_path / "a", grid="", model=""))
+    zero = parse_config(SWEEP.format(out=tmp_path / "b", grid="", model=", adhesion: 0.0, adhesion_range: 0.1"))
+    assert [(s.run_id, s.seed) for s in plain.runs()] == [(s.run_id, s.seed) for s in zero.runs()]
+    trajs = []
+    for cfg in (plain, zero):
+        assert [o.outcome for o in run_sweep(cfg, cfg.runs())] == ["done"]
+        trajs.append(next(cfg.output.rglob("trajectory.h5")))
+    with h5py.File(trajs[0], "r") as fa, h5py.File(trajs[1], "r") as fb:
+        names = []
+        fa["particles/cells"].visit(names.append)
+        values = [n for n in names if n.endswith("/value")]
+        assert "position/value" in values
+        for n in values:
+            assert np.array_equal(fa["particles/cells"][n][()], fb["particles/cells"][n][()]), n
+    assert read_parameters(trajs[0])["adhesion"] == 0.0
+
+
+def test_adhesion_is_a_sweepable_coordinate_carried_in_the_trajectory(tmp_path):
+    """``grid: {adhesion: [...]}`` gives one run per strength with its own id; the
+    trajectory's /parameters carry adhesion and adhesion_range."""
+    from fcsweep.config import parse_config
+    from fcsweep.io.h5md import read_parameters
+    from fcsweep.sweep.executors import run_sweep
+
+    cfg = parse_config(SWEEP.format(out=tmp_path, grid="adhesion: [0.0, 0.1]", model=", adhesion_range: 0.2"))
+    runs = cfg.runs()
+    assert len({s.run_id for s in runs}) == 2 and [s.params["adhesion"] for s in runs] == [0.0, 0.1]
+    assert [o.outcome for o in run_sweep(cfg, runs)] == ["done", "done"]
+    got = sorted((read_parameters(p)["adhesion"], read_parameters(p)["adhesion_range"])
+                 for p in cfg.output.rglob("trajectory.h5"))
+    assert got == [(0.0, 0.2), (0.1, 0.2)]
+
+
+@pytest.mark.parametrize("key,value,match", [("adhesion", -0.1, r"model\.adhesion = -0\.1"),
+                                              ("adhesion_range", 0.0, r"model\.adhesion_range = 0"),
+                                              ("adhesion_range", 0.6, r"model\.adhesion_range = 0\.6")])
+def test_adhesion_values_out_of_range_are_refused_naming_the_key(tmp_path, key, value, match):
+    from fcsweep.config import ConfigError, parse_config
+
+    with pytest.raises(ConfigError, match=match):
+        parse_config(SWEEP.format(out=tmp_path, grid="", model=f", {key}: {value}"))

@@ -22,7 +22,7 @@ from .options import NJIT
 from .records import P_ADH, P_ADHR, P_LX, P_LY, P_MUS, P_MUT, P_R0
 
 
-@njit(inline="always", **NJIT)
+@njit(**NJIT)  # not inlined: two call sites in a parallel loop would compile it twice
 def _adhesion_pair(i, j, dx, dy, a, b, geo, tx, ty, cphi, sphi, U, V, acc, R0, delta):
     """Both parts of the ordered pair (i, j), ``(dx, dy) = r_j - r_i`` (image included):
     adds i's per-point sums to ``U[i], V[i]`` and its sums at j's points to ``acc[i]``;
