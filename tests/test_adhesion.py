@@ -31,7 +31,8 @@ def test_smooth_step_is_continuous_with_its_derivative():
     x = np.linspace(-0.05, 0.15, 41)
     eps = 1e-7
     fd = (smooth_step(x + eps, d)[0] - smooth_step(x - eps, d)[0]) / (2 * eps)
-    assert np.allclose(fd, smooth_step(x, d)[1], atol=1e-6)
+    # w'' jumps by 6/delta^2 at both ends: there the central difference is off by ~1.5e-5
+    assert np.allclose(fd, smooth_step(x, d)[1], atol=5e-5)
 
 
 @pytest.mark.parametrize("M1", [0, 5])
@@ -131,32 +132,39 @@ def _relax_pair(gamma, delta, d0, K, M1=0, eta=0.0, steps=3000, dt=5e-3):
 def test_adhered_discs_reach_the_derived_contact_and_it_grows_with_strength():
     """Two rigid discs placed just out of contact (gap delta/2) at v0 = 0 are pulled
     together and settle where the chord balances the adhesion pull of the continuum
-    energy; the contact (chord) grows with gamma.  K = 160 resolves the band of width
-    delta = 0.1 by ~10 points; its point-quadrature error on the chord is below 2 %."""
+    energy; the contact (chord) grows with gamma.  K = 320 resolves the band of width
+    delta = 0.1 where it crosses the other disc by ~6 points: the point-quadrature error
+    on the chord is 0.1-0.4 % there (3.4 % at K = 160, 0.1 % at K = 640 for gamma = 0.2)."""
     delta = 0.1
     chords = []
     for gamma in (0.05, 0.1, 0.2):
         d_star = _disc_balance(gamma, delta)
-        d, _, _ = _relax_pair(gamma, delta, 2.0 + 0.5 * delta, K=160, steps=2000, dt=2e-3)
+        d, _, _ = _relax_pair(gamma, delta, 2.0 + 0.5 * delta, K=320, steps=2000, dt=2e-3)
         chord, chord_star = 2 * np.sqrt(1 - d * d / 4), 2 * np.sqrt(1 - d_star * d_star / 4)
         assert d < 2.0  # pulled into contact
-        assert chord == pytest.approx(chord_star, rel=0.02)
+        assert chord == pytest.approx(chord_star, rel=0.01)
         chords.append(chord)
     assert chords[0] < chords[1] < chords[2]
 
 
-def test_deformable_pair_flattens_more_with_stronger_adhesion():
-    """Two deformable cells (M = 6, eta = 0.1) at v0 = 0 adhere: the overlap depth and
-    the flattening of the contact side (the mode-2 amplitude along the contact) grow
-    with gamma, and with gamma = 0 cells just out of contact stay apart."""
-    depth, flat = [], []
-    for gamma in (0.0, 0.05, 0.1):
-        d, a, _ = _relax_pair(gamma, 0.1, 2.05, K=40, M1=5, eta=0.1, steps=1500, dt=5e-3)
-        depth.append(2.0 - d)
-        flat.append(float(np.mean(a[:, 0])))
-    assert depth[0] == pytest.approx(-0.05, abs=1e-12)
-    assert depth[0] < depth[1] < depth[2]
-    assert flat[0] == 0.0 and flat[1] < flat[2]
+def test_deformable_pair_adheres_longer_with_stronger_adhesion():
+    """Two deformable cells (M = 6, eta = 0.1) set 0.05 R0 apart at v0 = 0: without
+    adhesion they stay apart; with it they are pulled into contact, and the adhered
+    length L = -E_adh / gamma of the relaxed pair grows with gamma, as it must for
+    minimisers of E_0 - gamma L (comparing the two minimum conditions at gamma < gamma'
+    gives (gamma' - gamma)(L' - L) >= 0).  7.5 time units relax L to 1e-3 (checked
+    against 20)."""
+    lengths = []
+    for gamma in (0.0, 0.02, 0.05, 0.1):
+        d, a, b = _relax_pair(gamma, 0.1, 2.05, K=40, M1=5, eta=0.1, steps=1500, dt=5e-3)
+        if gamma == 0.0:
+            assert d == pytest.approx(2.05, abs=1e-12)
+            continue
+        assert d < 2.0
+        pos = np.array([[0.0, 0.0], [d, 0.0]])
+        th = np.array([0.0, np.pi])
+        lengths.append(-adhesion_energy(pos, th, a, b, adhesion=1.0, adhesion_range=0.1, contour_points=40))
+    assert np.all(np.diff(lengths) > 0.02)
 
 
 SWEEP = """
