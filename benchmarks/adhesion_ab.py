@@ -39,7 +39,8 @@ def worker(args):
     from fcsweep.simulation import Simulation
 
     extra = {} if args.adhesion is None else {"adhesion": args.adhesion}
-    sim = Simulation.from_lattice(args.N, eta=0.03, v0=0.06, Dr=0.01, seed=1, quadrature=args.quadrature, **extra)
+    sim = Simulation.from_lattice(args.N, eta=0.03, v0=0.06, Dr=0.01, seed=1, quadrature=args.quadrature[0],
+                                  **extra)
     sim.advance(args.warm)
     print(json.dumps({"ready": True}), flush=True)
     for line in sys.stdin:
