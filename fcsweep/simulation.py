@@ -76,6 +76,8 @@ class SimParams:
     mu_shape: float = DEFAULTS["mu_shape"]
     integrator: str = DEFAULTS["integrator"]
     initial: str = DEFAULTS["initial"]
+    adhesion: float = DEFAULTS["adhesion"]
+    adhesion_range: float = DEFAULTS["adhesion_range"]
 
     def __post_init__(self):
         for name, p in PARAMETERS.items():
@@ -173,7 +175,8 @@ class Simulation:
         self._prm = param_vector(
             box=params.box, R0=params.R0, eta=params.eta, v0=params.v0, mu_theta=params.mu_theta,
             mu_shape=params.mu_shape, dt=params.dt, noise_amp=math.sqrt(2.0 * params.Dr * params.dt),
-            smax=PROJECTION_MARGIN * ADMISSIBLE_BOUND, dmax=spacing,
+            smax=PROJECTION_MARGIN * ADMISSIBLE_BOUND, dmax=spacing, adhesion=params.adhesion,
+            adhesion_range=params.adhesion_range,
             **contact_parameters(params.integrator, params.dt, params.modes, params.R0, params.mu_shape),
         )
 
@@ -353,7 +356,8 @@ class Simulation:
         s, p = self.state, self.params
         return kernel_rates(s.pos, s.theta, s.a, s.b, eta=p.eta, v0=p.v0, box=p.box, R0=p.R0,
                             contour_points=p.contour_points, quadrature=p.quadrature,
-                            mu_theta=p.mu_theta, mu_shape=p.mu_shape)
+                            mu_theta=p.mu_theta, mu_shape=p.mu_shape, adhesion=p.adhesion,
+                            adhesion_range=p.adhesion_range)
 
     # ------------------------------------------------------------------ persistence
     def to_checkpoint(self) -> dict:

@@ -5,18 +5,20 @@ from __future__ import annotations
 import numpy as np
 
 from ..model.integrators import JACOBI_MAX_FACTOR, KAPPA_FLOOR
-from .records import (N_PARAMS, P_CONTACT, P_DMAX, P_DT, P_ETA, P_KFLOOR, P_LAMMAX, P_LX, P_LY, P_MUS, P_MUT,
-                      P_NOISE, P_R0, P_SKIN, P_SMAX, P_SWEEPS, P_V0)
+from .records import (N_PARAMS, P_ADH, P_ADHR, P_CONTACT, P_DMAX, P_DT, P_ETA, P_KFLOOR, P_LAMMAX, P_LX, P_LY,
+                      P_MUS, P_MUT, P_NOISE, P_R0, P_SKIN, P_SMAX, P_SWEEPS, P_V0)
 from .step import compute_rates
 from .workspace import SKIN, quadrature_code, workspace_for
 
 
 def param_vector(*, box, R0, eta, v0, mu_theta, mu_shape, dt=0.0, noise_amp=0.0, smax=np.inf, dmax=np.inf,
-                 contact=0.0, sweeps=0, kappa_floor=KAPPA_FLOOR):
+                 contact=0.0, sweeps=0, kappa_floor=KAPPA_FLOOR, adhesion=0.0, adhesion_range=0.1):
     """Float parameter vector in the layout :func:`fcsweep.kernels.step.run_chunk` reads.
 
     ``contact``, ``sweeps`` and ``kappa_floor`` are an integrator's contact settings
     (:func:`fcsweep.model.integrators.contact_parameters`; the defaults are Euler's).
+    ``adhesion`` and ``adhesion_range`` (in R0) are :mod:`fcsweep.model.adhesion`'s gamma and
+    delta / R0; with ``adhesion = 0`` the vector holds zeros for both and the step is today's.
     """
     prm = np.zeros(N_PARAMS)
     Lx, Ly = (1.0, 1.0) if box is None else (float(box[0]), float(box[1]))
@@ -28,6 +30,9 @@ def param_vector(*, box, R0, eta, v0, mu_theta, mu_shape, dt=0.0, noise_amp=0.0,
     prm[P_KFLOOR] = kappa_floor
     prm[P_SWEEPS] = sweeps
     prm[P_LAMMAX] = JACOBI_MAX_FACTOR
+    if adhesion > 0.0:
+        prm[P_ADH] = adhesion
+        prm[P_ADHR] = adhesion_range * R0
     return prm
 
 
@@ -43,13 +48,14 @@ def wrap_positions(pos, box):
 
 def kernel_rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, contour_points=40, quadrature="arc",
                  mu_theta=1.0, mu_shape=1.0, workspace=None, contact=0.0, sweeps=0, kappa_floor=KAPPA_FLOOR,
-                 dt=0.0):
+                 dt=0.0, adhesion=0.0, adhesion_range=0.1):
     """Deterministic rates computed by the numba kernels; same contract as
     :func:`fcsweep.model.rates.rates`.
 
     ``contact > 0`` gives the effective rates of one contact-implicit step instead
     (each pair's integrals scaled by its factor; see :mod:`fcsweep.model.integrators`),
     and ``sweeps > 0`` as well those of one contact-jacobi step of length ``dt``.
+    ``adhesion > 0`` adds the adhesion rates (:func:`fcsweep.model.adhesion.adhesion_rates`).
     """
     pos = np.ascontiguousarray(pos, dtype=float).reshape(-1, 2)
     N = len(pos)
@@ -63,7 +69,8 @@ def kernel_rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, contour_points=
     if sweeps > 0 and not ws.pair_records:
         raise ValueError("contact-jacobi needs a Workspace with pair_records=True")
     prm = param_vector(box=box, R0=R0, eta=eta, v0=v0, mu_theta=mu_theta, mu_shape=mu_shape, contact=contact,
-                       sweeps=sweeps, kappa_floor=kappa_floor, dt=dt)
+                       sweeps=sweeps, kappa_floor=kappa_floor, dt=dt, adhesion=adhesion,
+                       adhesion_range=adhesion_range)
     pos = wrap_positions(pos, box)
     ws.nl[4][0] = 0  # positions are new: rebuild the neighbour list
     while not compute_rates(pos, theta, a, b, prm, box is not None, quadrature_code(quadrature),

@@ -31,6 +31,8 @@ NeighbourList = namedtuple("NeighbourList", "nbr count ref_pos ref_rb valid pair
 Rates = namedtuple("Rates", "dpos dth da db")
 
 #: Indices into the float parameter vector (:func:`fcsweep.kernels.api.param_vector`).
+#: ``P_ADH``: adhesion strength gamma (0: off); ``P_ADHR``: its range delta in length units
+#: (0 when adhesion is off, so that the neighbour lists are today's).
 (P_LX, P_LY, P_R0, P_ETA, P_V0, P_MUT, P_MUS, P_DT, P_NOISE, P_SMAX, P_DMAX, P_SKIN, P_CONTACT, P_KFLOOR, P_SWEEPS,
- P_LAMMAX) = range(16)
-N_PARAMS = 16
+ P_LAMMAX, P_ADH, P_ADHR) = range(18)
+N_PARAMS = 18

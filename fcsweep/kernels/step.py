@@ -18,12 +18,13 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from .adhesion import adhesion_rates
 from .celllist import build_cell_list, grid_shape
 from .geometry import geometry
 from .options import NJIT
 from .pairs import QUAD_ARC
 from .rates import all_rates, contact_sweeps
-from .records import P_DMAX, P_DT, P_LX, P_LY, P_NOISE, P_R0, P_SKIN, P_SMAX, P_SWEEPS
+from .records import P_ADH, P_ADHR, P_DMAX, P_DT, P_LX, P_LY, P_NOISE, P_R0, P_SKIN, P_SMAX, P_SWEEPS
 from .verlet import build_back, build_verlet, needs_rebuild
 
 #: Status codes returned by :func:`run_chunk`.
@@ -108,18 +109,20 @@ def compute_rates(pos, theta, a, b, prm, periodic, quad, tables, scratch, cl, nl
     Lx = prm[P_LX]
     Ly = prm[P_LY]
     skin = prm[P_SKIN]
+    # the list reaches the adhesion range beyond the skin (0 when adhesion is off)
+    reach = skin + prm[P_ADHR]
     use_list = False
     if periodic:
         rbmax = 0.0
         for i in range(pos.shape[0]):
             rbmax = max(rbmax, geo[i, 1])
-        nx, ny = grid_shape(Lx, Ly, 2.0 * rbmax + skin, pos.shape[0])
+        nx, ny = grid_shape(Lx, Ly, 2.0 * rbmax + reach, pos.shape[0])
         if nx >= 3 and ny >= 3 and (nx * ny + 1) <= cell_start.shape[0]:
             use_list = True
             if valid[0] == 0 or needs_rebuild(pos, geo, ref_pos, ref_rb, Lx, Ly, skin):
                 build_cell_list(pos, Lx, Ly, nx, ny, cell_of, cell_start, cell_members)
                 valid[0] = 0
-                if not build_verlet(pos, geo, Lx, Ly, skin, nx, ny, cell_of, cell_start, cell_members,
+                if not build_verlet(pos, geo, Lx, Ly, reach, nx, ny, cell_of, cell_start, cell_members,
                                     nbr, count, ref_pos, ref_rb):
                     return False
                 if back.shape[0] > 0:
@@ -130,6 +133,8 @@ def compute_rates(pos, theta, a, b, prm, periodic, quad, tables, scratch, cl, nl
     sweeps = np.int64(prm[P_SWEEPS])
     jacobi = sweeps > 0 and use_list and quad == QUAD_ARC and a.shape[1] > 0 and pinfo.shape[0] > 0
     all_rates(pos, a, b, prm, periodic, quad, tables, scratch, nl, out, use_list, jacobi)
+    if prm[P_ADH] > 0.0:
+        adhesion_rates(pos, a, b, prm, periodic, tables, scratch, nl, out, use_list)
     if jacobi:
         contact_sweeps(a, b, prm, scratch, nl, out, sweeps)
     return True

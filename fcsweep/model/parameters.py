@@ -161,6 +161,20 @@ PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
               "box, relaxed at v0 = 0: an isotropic start, docs/model.md). Sweep both to bracket a label from "
               "both sides. Part of the run id only when not `lattice`, so ids of existing sweeps do not change",
               choices=INITIAL_STATES, unit="", id_omits_default=True),
+    Parameter("adhesion", float, 0.0, "adhesion strength gamma (energy per adhered contour length)",
+              "adhesion strength: energy per contour length within adhesion_range of another cell (0: off)",
+              "adhesion strength γ: energy per unit of contour length lying inside or within `adhesion_range` of "
+              "another cell (docs/model.md, Adhesion); same units as η",
+              "0 … 10³ (0: off, today's model bit for bit). Part of the run id only when not 0, so ids of "
+              "existing sweeps do not change", range=(0.0, 1e3), sign=">= 0", unit="F",
+              id_omits_default=True),
+    Parameter("adhesion_range", float, 0.1, "adhesion range delta (R0)",
+              "range of the adhesion well outside a contact, in R0",
+              "range δ of the adhesion well: a contour point adheres fully inside another cell and with a smooth "
+              "weight falling to 0 at a radial gap δ outside it",
+              "10⁻³ ≤ δ ≤ 0.5 (narrower wells are too stiff for any dt). No effect when `adhesion` is 0; part "
+              "of the run id only when not 0.1", range=(1e-3, 0.5), sign="> 0", unit="R0",
+              id_omits_default=True),
 )}
 
 #: name -> default (``None``: must be given).

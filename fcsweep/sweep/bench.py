@@ -35,8 +35,8 @@ CHECKPOINT_CPU_S, CHECKPOINT_IO_S = 0.02, 0.03
 STARTUP_CPU_S = 2.0
 
 #: Parameters that set the cost of one step (besides the state the dynamics reaches;
-#: the contact integrators cost 1.5x Euler's step with the arc rule).
-COST_KEYS = ("N", "modes", "contour_points", "quadrature", "integrator")
+#: the contact integrators cost 1.5x Euler's step with the arc rule; adhesion 6-8x).
+COST_KEYS = ("N", "modes", "contour_points", "quadrature", "integrator", "adhesion")
 
 
 def measure_throughput(params, *, steps, warm, threads=None, repeats=3) -> float:

@@ -63,6 +63,10 @@ MAX_AGE_DAYS = 30
 FALLBACK_US = {"binary": 0.887, "linear": 1.19, "arc": 2.45, "disc": 0.105}
 #: The contact integrators' step costs about 1.5x Euler's (docs/speed_vs_error.md).
 CONTACT_INTEGRATOR_FACTOR = 1.5
+#: A step with adhesion on costs this many times one without (N = 1024, adhesion 0.1,
+#: benchmarks/results/adhesion_ab.txt: 8.1x binary, 5.7x arc; other rules as binary).
+ADHESION_FACTOR = {"arc": 5.7}
+ADHESION_FACTOR_OTHER = 8.1
 #: Parameters that never change the cost of a step.
 _NOT_COST = ("seed",)
 
@@ -113,6 +117,8 @@ def fallback_seconds(params: Mapping) -> float:
     us = FALLBACK_US.get(rule, FALLBACK_US["arc"])
     if str(params.get("integrator", "euler")) != "euler":
         us *= CONTACT_INTEGRATOR_FACTOR
+    if float(params.get("adhesion", 0.0)) > 0.0:
+        us *= ADHESION_FACTOR.get(rule, ADHESION_FACTOR_OTHER)
     return us * 1e-6
 
 
