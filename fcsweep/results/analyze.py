@@ -72,7 +72,8 @@ from fcsweep.model.observables import CURVES, KTHNY_FITS, LABELS, REASON_CODES, 
 
 __all__ = ["ANALYSIS_FILE", "ANALYSIS_ERROR_FILE", "DATASET_FILE", "DEFAULT_SETTINGS", "DEFAULT_TRANSIENT",
            "OPTIONAL_SETTINGS",
-           "SCALARS", "STATUS_FILE", "TRAJECTORY_FILE", "TrajectoryFrames", "UNWRITTEN", "AnalysisError", "analyze_run", "analyze_sweep",
+           "SCALARS", "STATUS_FILE", "TRAJECTORY_FILE", "TrajectoryFrames", "UNWRITTEN", "AnalysisError",
+           "analyze_run", "analyze_sweep",
            "config_settings", "label_summary", "read_analysis", "read_run_frames", "settings_with",
            "trajectory_observables"]
 
@@ -173,7 +174,7 @@ def read_run_frames(traj, settings: dict) -> RunFrames:
     rigid = traj.modes_width == 0 and int(p.get("modes", 1) or 0) == 0
     a = b = None
     if not rigid and "shape_a" in traj.fields and "shape_b" in traj.fields:
-        a, b = TrajectoryFrames(traj, "shape_a", plan.shape_frames), TrajectoryFrames(traj, "shape_b", plan.shape_frames)
+        a, b = (TrajectoryFrames(traj, name, plan.shape_frames) for name in ("shape_a", "shape_b"))
     return RunFrames(source=str(traj.path), params=p, box=traj.box, time=traj.time, plan=plan, shape_a=a,
                      shape_b=b, rigid=rigid, positions=TrajectoryFrames(traj, "position", plan.structure_frames),
                      unwrapped=TrajectoryFrames(traj, "position", plan.frames, unwrap=True))
