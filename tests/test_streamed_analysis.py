@@ -26,8 +26,10 @@ REL = 1e-12
 
 @pytest.fixture
 def tiny_blocks(monkeypatch):
-    """Blocks of about 3 cells over all frames, single frames, a cache of 2 frames."""
-    monkeypatch.setattr(frames, "BLOCK_BYTES", 3 * 60 * 16)
+    """Blocks of about 7 cells over all frames read, computed on 3 at a time; single
+    frames; a cache of 2 frames."""
+    monkeypatch.setattr(frames, "BLOCK_BYTES", 7 * 60 * 16)
+    monkeypatch.setattr(frames, "WORK_BYTES", 3 * 60 * 16)
     monkeypatch.setattr(frames, "CACHE_BYTES", 1)
 
 
@@ -51,7 +53,7 @@ def _same(a, b, rel=REL):
 def test_msd_by_blocks_of_cells_is_the_msd_of_all(tiny_blocks, drift):
     x, _ = _creeping()
     src = ArrayFrames(x)
-    assert len(src.cell_blocks()) > 10  # the split is exercised
+    assert len(src.cell_blocks()) > 5  # the split is exercised
     _same(msd_curve_streamed(src, subtract_drift=drift), msd_curve(x, subtract_drift=drift, n_blocks=1)[0])
 
 
@@ -120,7 +122,8 @@ def test_a_trajectory_read_in_pieces_gives_the_observables_of_the_arrays_held(tm
                         "positions": traj.read("position", plan.structure_frames),
                         "unwrapped": traj.unwrapped(plan.frames)})
     ref_sc, ref_cv, _ = compute_observables(held, s)  # one block: every array whole
-    monkeypatch.setattr(frames, "BLOCK_BYTES", 2 * 40 * 16)
+    monkeypatch.setattr(frames, "BLOCK_BYTES", 5 * 40 * 16)
+    monkeypatch.setattr(frames, "WORK_BYTES", 2 * 40 * 16)
     monkeypatch.setattr(frames, "CACHE_BYTES", 1)
     sc, cv, _ = trajectory_observables(open_trajectory(tmp_path / "trajectory.h5"), s)
     assert np.isfinite(ref_sc["D_eff"]) and np.isfinite(ref_sc["q_mean"]) and np.isfinite(ref_sc["cage_msd_ratio"])

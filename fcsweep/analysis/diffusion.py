@@ -16,7 +16,7 @@ import numpy as np
 
 from fcsweep.analysis.collective import (MIN_WINDOWS, inefficiency_of_squares, inefficiency_windows,
                                          spatial_inefficiency, window_squares)
-from fcsweep.analysis.frames import FrameSource
+from fcsweep.analysis.frames import FrameSource, work_blocks
 from fcsweep.analysis.msd import (block_displacements, drift_subtracted, frame_drift, mean_displacement,
                                   particle_msd, window_mean)
 
@@ -271,14 +271,16 @@ def _blocks_streamed(x: FrameSource, h: float, B: int, tau_r: float, fit_start: 
         Di = {"all": np.empty(N), "late": np.empty(N)}
         csum = np.zeros((Lf, 2))
         squares = np.empty((k, N)) if N >= 2 and k >= MIN_WINDOWS else None
-        for c0, c1 in xb.cell_blocks():
-            disp = block_displacements(xb.cells(c0, c1), drift)
-            per = particle_msd(disp)
-            Di["all"][c0:c1] = w_all @ per[lags]
-            Di["late"][c0:c1] = w_late @ per[late]
-            csum += disp.sum(axis=1)
-            if squares is not None:
-                squares[:, c0:c1] = window_squares(disp, m, k)
+        for lo_, hi_ in xb.cell_blocks():
+            for a, xc in work_blocks(xb.cells(lo_, hi_)):
+                c0, c1 = lo_ + a, lo_ + a + xc.shape[1]
+                disp = block_displacements(xc, drift)
+                per = particle_msd(disp)
+                Di["all"][c0:c1] = w_all @ per[lags]
+                Di["late"][c0:c1] = w_late @ per[late]
+                csum += disp.sum(axis=1)
+                if squares is not None:
+                    squares[:, c0:c1] = window_squares(disp, m, k)
         mean_sq = np.sum(window_mean(csum / N) ** 2, axis=-1)
         for w, ls, key, D_out, v_out in ((w_all, lags, "all", Db, var_b), (w_late, late, "late", Dl, var_l)):
             D_out[b] = Di[key].mean() - w @ mean_sq[ls]

@@ -6,7 +6,7 @@ N = 10^5 and 501 frames that is 0.8 GB per copy.  A :class:`FrameSource` gives t
 values in pieces instead, so that the MSD and D_eff (:mod:`fcsweep.analysis.stream`), the
 cage measure (:func:`fcsweep.analysis.cage.cage_breaking`, which reads single frames) and
 the structure and shape steps hold a bounded number of frames, or all frames of a block of
-cells sized by :data:`BLOCK_BYTES`.
+cells sized by :data:`BLOCK_BYTES` (computed on in pieces of :data:`WORK_BYTES`).
 
 :class:`ArrayFrames` serves an array held in memory (tests, callers with arrays);
 :class:`fcsweep.results.analyze.TrajectoryFrames` reads a trajectory file (the analysis
@@ -20,8 +20,12 @@ from collections import OrderedDict
 import numpy as np
 
 #: Bytes of one block of cells over all its frames (float64) read at once by the streamed
-#: MSD and D_eff: the peak memory of those steps is a small multiple of it.
-BLOCK_BYTES = 64 << 20
+#: MSD and D_eff (:meth:`FrameSource.cell_blocks`): each read of a block decompresses the
+#: whole series of the file, so fewer, larger blocks cost less time.
+BLOCK_BYTES = 256 << 20
+#: Bytes of the pieces those steps compute on at once (:func:`work_blocks`; freud's window
+#: MSD needs about 9 times its input), and of a block of frames (:meth:`FrameSource.frame_blocks`).
+WORK_BYTES = 16 << 20
 #: Bytes of single frames a source keeps for repeated reads (the cage measure reads each
 #: time origin at many lags).
 CACHE_BYTES = 64 << 20
@@ -113,11 +117,19 @@ class FrameSource:
         return [(lo, min(lo + size, N)) for lo in range(0, N, size)]
 
     def frame_blocks(self, block_bytes: int | None = None):
-        """``(start, stop)`` blocks of frames of about ``block_bytes`` each."""
+        """``(start, stop)`` blocks of frames of about ``block_bytes`` (default :data:`WORK_BYTES`) each."""
         per_frame = max(1, int(np.prod(self.shape[1:])) * 8)
-        size = max(1, int(BLOCK_BYTES if block_bytes is None else block_bytes) // per_frame)
+        size = max(1, int(WORK_BYTES if block_bytes is None else block_bytes) // per_frame)
         T = self.shape[0]
         return [(s, min(s + size, T)) for s in range(0, T, size)]
+
+
+def work_blocks(block: np.ndarray, work_bytes: int | None = None):
+    """Views ``block[:, a:b]`` of a block of cells ``(T, n, ...)`` of about ``work_bytes``
+    (default :data:`WORK_BYTES`) each."""
+    per_cell = max(1, block.shape[0] * int(np.prod(block.shape[2:])) * 8)
+    size = max(1, int(WORK_BYTES if work_bytes is None else work_bytes) // per_cell)
+    return [(a, block[:, a:a + size]) for a in range(0, block.shape[1], size)]
 
 
 class ArrayFrames(FrameSource):

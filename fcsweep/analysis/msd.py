@@ -21,6 +21,8 @@ from __future__ import annotations
 import freud
 import numpy as np
 
+from fcsweep.analysis.frames import work_blocks
+
 
 def drift_subtracted(unwrapped: np.ndarray) -> np.ndarray:
     """Displacements from frame 0 with the centre-of-mass displacement removed.
@@ -184,7 +186,8 @@ def msd_curve_streamed(src, *, subtract_drift: bool = True, block_bytes: int | N
     total = np.zeros(T)
     csum = np.zeros((T, 2))
     for lo, hi in src.cell_blocks(block_bytes):
-        disp = block_displacements(src.cells(lo, hi), drift)
-        total += particle_msd(disp).sum(axis=1)
-        csum += disp.sum(axis=1)
+        for _, xc in work_blocks(src.cells(lo, hi)):
+            disp = block_displacements(xc, drift)
+            total += particle_msd(disp).sum(axis=1)
+            csum += disp.sum(axis=1)
     return total / N - np.sum(window_mean(csum / N) ** 2, axis=-1)
