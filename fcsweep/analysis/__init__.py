@@ -2,6 +2,7 @@
 
 Modules
 -------
+frames     per-cell time series read in pieces (blocks of frames or of cells)
 msd        drift-subtracted, window-averaged mean squared displacement (freud.msd)
 diffusion  long-time diffusion coefficient D_s, D0 = v0^2 / (2 Dr) and D_eff = D_s / D0
 collective spatial statistical inefficiency of per-cell quantities

@@ -38,6 +38,7 @@ import numpy as np
 from scipy.special import j0, ndtr
 
 from fcsweep.analysis.diffusion import free_diffusion
+from fcsweep.analysis.frames import FrameSource
 from fcsweep.analysis.voronoi import voronoi_neighbors
 
 #: Lags added between ``t*`` and the window's end for the slope past ``t*``.
@@ -149,8 +150,9 @@ def cage_breaking(time, unwrapped, box, *, spacing: float | None = None,
     ----------
     time : ndarray, shape (T,)
         Equally spaced frame times of the analysed window.
-    unwrapped : ndarray, shape (T, N, 2)
-        Unwrapped centroids.
+    unwrapped : ndarray, shape (T, N, 2), or fcsweep.analysis.frames.FrameSource
+        Unwrapped centroids (a frame source is read a frame at a time: the time origins
+        and their lags).
     box : (Lx, Ly)
         Periodic box (for the Voronoi neighbours and the spacing).
     spacing : float, optional
@@ -166,7 +168,7 @@ def cage_breaking(time, unwrapped, box, *, spacing: float | None = None,
     CageBreaking
     """
     t = np.asarray(time, dtype=float)
-    x = np.asarray(unwrapped, dtype=float)
+    x = unwrapped if isinstance(unwrapped, FrameSource) else np.asarray(unwrapped, dtype=float)
     T, N = x.shape[:2]
     a = float(spacing) if spacing is not None else neighbour_spacing(N, box)
     nan = float("nan")

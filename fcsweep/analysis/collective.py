@@ -42,12 +42,29 @@ def spatial_inefficiency(displacements, *, windows: int = 16) -> float:
     """
     d = np.asarray(displacements, dtype=float)
     T, N = d.shape[:2]
-    m = max(1, (T - 1) // max(int(windows), 1))
-    k = (T - 1) // m
+    m, k = inefficiency_windows(T, windows)
     if N < 2 or k < MIN_WINDOWS:
         return 1.0
+    return inefficiency_of_squares(window_squares(d, m, k))
+
+
+def inefficiency_windows(T: int, windows: int = 16) -> tuple[int, int]:
+    """Lag ``m`` (frames) and number ``k`` of the windows :func:`spatial_inefficiency` uses
+    on ``T`` frames (it returns 1 where ``k < MIN_WINDOWS``)."""
+    m = max(1, (T - 1) // max(int(windows), 1))
+    return m, (T - 1) // m
+
+
+def window_squares(d: np.ndarray, m: int, k: int) -> np.ndarray:
+    """Squared increments ``|d(j m + m) - d(j m)|^2``, shape ``(k, N)``, of displacements
+    ``d`` (T, N, 2): cell by cell, so blocks of cells can be done apart."""
     u = d[m:(k + 1) * m:m] - d[0:k * m:m]  # (k, N, 2) consecutive increments over lag m
-    s = np.sum(u * u, axis=-1)
+    return np.sum(u * u, axis=-1)
+
+
+def inefficiency_of_squares(s: np.ndarray) -> float:
+    """``g`` of :func:`spatial_inefficiency` from the squared window increments ``s`` (k, N)."""
+    N = s.shape[1]
     within = float(np.mean(s.var(axis=1, ddof=1)))
     if within <= 0:
         return 1.0

@@ -14,8 +14,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fcsweep.analysis.collective import spatial_inefficiency
-from fcsweep.analysis.msd import drift_subtracted, mean_displacement, particle_msd
+from fcsweep.analysis.collective import (MIN_WINDOWS, inefficiency_of_squares, inefficiency_windows,
+                                         spatial_inefficiency, window_squares)
+from fcsweep.analysis.frames import FrameSource, work_blocks
+from fcsweep.analysis.msd import (block_displacements, drift_subtracted, frame_drift, mean_displacement,
+                                  particle_msd, window_mean)
 
 #: D_eff below which a run is labelled solid.
 D_EFF_SOLID = 1e-3
@@ -143,8 +146,9 @@ def estimate_diffusion(time, unwrapped, *, Dr: float, max_time_blocks: int = 8,
     ----------
     time : ndarray, shape (T,)
         Equally spaced frame times.
-    unwrapped : ndarray, shape (T, N, 2)
-        Unwrapped centroids.
+    unwrapped : ndarray, shape (T, N, 2), or fcsweep.analysis.frames.FrameSource
+        Unwrapped centroids; a frame source is read a block of cells at a time (the same
+        estimate within rounding, without holding the whole series).
     Dr : float
         Rotational diffusion (sets the persistence time ``1/Dr``; 0 or non-finite: a
         linear fit ``4 D t + c``).
@@ -159,7 +163,8 @@ def estimate_diffusion(time, unwrapped, *, Dr: float, max_time_blocks: int = 8,
     DiffusionEstimate
     """
     time = np.asarray(time, dtype=float)
-    x = np.asarray(unwrapped, dtype=float)
+    x = unwrapped if isinstance(unwrapped, FrameSource) else np.asarray(unwrapped, dtype=float)
+    _blocks = _blocks_streamed if isinstance(x, FrameSource) else _blocks_held
     h = float(time[1] - time[0])
     span = float(time[-1] - time[0])
     tau_r = 1.0 / float(Dr) if np.isfinite(Dr) and Dr > 0 else 0.0
@@ -203,7 +208,7 @@ def _cell_msd(xb: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return disp, particle_msd(disp), np.sum(mean_displacement(disp) ** 2, axis=-1)
 
 
-def _blocks(x: np.ndarray, h: float, B: int, tau_r: float, fit_start: float):
+def _blocks_held(x: np.ndarray, h: float, B: int, tau_r: float, fit_start: float):
     """Block estimate over ``B`` time blocks (None if too short):
     ``(D, err_time, err_cells, D_late, err_late, lo, hi, frames_per_block, g)``.
 
@@ -231,6 +236,56 @@ def _blocks(x: np.ndarray, h: float, B: int, tau_r: float, fit_start: float):
             D_out[b] = Di.mean() - w @ mean_sq[ls]
             v_out[b] = Di.var(ddof=1) / N if N > 1 else np.nan
         gs[b] = spatial_inefficiency(disp)
+    err_t = float(Db.std(ddof=1) / np.sqrt(B)) if B > 1 else float("nan")
+    err_c = float(np.sqrt(np.sum(gs * var_b)) / B)
+    errl_t = float(Dl.std(ddof=1) / np.sqrt(B)) if B > 1 else float("nan")
+    errl_c = float(np.sqrt(np.sum(gs * var_l)) / B)
+    return (float(Db.mean()), err_t, err_c, float(Dl.mean()), float(np.nanmax([errl_t, errl_c])),
+            lo, hi, Lf, float(gs.mean()))
+
+
+def _block_lags(Lf: int, fit_start: float):
+    hi = Lf // 2
+    lo = max(1, int(np.ceil(fit_start * hi)))
+    return lo, hi, np.arange(lo, hi + 1), np.arange(max(lo, hi // 2), hi + 1)
+
+
+def _blocks_streamed(x: FrameSource, h: float, B: int, tau_r: float, fit_start: float):
+    """:func:`_blocks_held` of a frame source: per time block, the drift of all cells from one
+    pass over its frames, then the cells' slopes a block of cells at a time (each cell's
+    window MSD is the one :func:`_blocks_held` computes; the window increments of
+    the spatial inefficiency are ``(k <= 16, N)``)."""
+    Lf = x.shape[0] // B
+    lo, hi, lags, late = _block_lags(Lf, fit_start)
+    if lags.size < 3 or late.size < 3:
+        return None
+    t = np.arange(Lf) * h
+    N = x.shape[1]
+    w_all = _slope_weights(lags, t, tau_r)
+    w_late = _slope_weights(late, t, tau_r)
+    m, k = inefficiency_windows(Lf)
+    Db, Dl, var_b, var_l, gs = (np.empty(B) for _ in range(5))
+    for b in range(B):
+        xb = x.window(b * Lf, (b + 1) * Lf)
+        drift = frame_drift(xb)
+        Di = {"all": np.empty(N), "late": np.empty(N)}
+        csum = np.zeros((Lf, 2))
+        squares = np.empty((k, N)) if N >= 2 and k >= MIN_WINDOWS else None
+        for lo_, hi_ in xb.cell_blocks():
+            for a, xc in work_blocks(xb.cells(lo_, hi_)):
+                c0, c1 = lo_ + a, lo_ + a + xc.shape[1]
+                disp = block_displacements(xc, drift)
+                per = particle_msd(disp)
+                Di["all"][c0:c1] = w_all @ per[lags]
+                Di["late"][c0:c1] = w_late @ per[late]
+                csum += disp.sum(axis=1)
+                if squares is not None:
+                    squares[:, c0:c1] = window_squares(disp, m, k)
+        mean_sq = np.sum(window_mean(csum / N) ** 2, axis=-1)
+        for w, ls, key, D_out, v_out in ((w_all, lags, "all", Db, var_b), (w_late, late, "late", Dl, var_l)):
+            D_out[b] = Di[key].mean() - w @ mean_sq[ls]
+            v_out[b] = Di[key].var(ddof=1) / N if N > 1 else np.nan
+        gs[b] = 1.0 if squares is None else inefficiency_of_squares(squares)
     err_t = float(Db.std(ddof=1) / np.sqrt(B)) if B > 1 else float("nan")
     err_c = float(np.sqrt(np.sum(gs * var_b)) / B)
     errl_t = float(Dl.std(ddof=1) / np.sqrt(B)) if B > 1 else float("nan")

@@ -21,6 +21,8 @@ from __future__ import annotations
 import freud
 import numpy as np
 
+from fcsweep.analysis.frames import work_blocks
+
 
 def drift_subtracted(unwrapped: np.ndarray) -> np.ndarray:
     """Displacements from frame 0 with the centre-of-mass displacement removed.
@@ -65,7 +67,11 @@ def particle_msd(disp: np.ndarray) -> np.ndarray:
 
 def mean_displacement(disp: np.ndarray) -> np.ndarray:
     """Window- and particle-averaged displacement vector per lag, shape (T, 2)."""
-    c = disp.mean(axis=1)  # (T, 2) mean over particles
+    return window_mean(disp.mean(axis=1))  # (T, 2) mean over particles
+
+
+def window_mean(c: np.ndarray) -> np.ndarray:
+    """Window average ``mean_k (c[k + m] - c[k])`` per lag ``m`` of a series ``c`` (T, 2)."""
     T = c.shape[0]
     cs = np.concatenate([np.zeros((1, 2)), np.cumsum(c, axis=0)])  # cs[k] = sum_{<k}
     m = np.arange(T)
@@ -120,3 +126,68 @@ def log_lag_indices(T: int, n: int = 120) -> np.ndarray:
         return np.zeros(1, dtype=np.int64)
     lags = np.unique(np.round(np.geomspace(1, T - 1, max(int(n), 2))).astype(np.int64))
     return np.concatenate([[0], lags])
+
+
+def frame_drift(src) -> np.ndarray:
+    """Mean over cells of ``x(t) - x(0)`` of a :class:`fcsweep.analysis.frames.FrameSource`,
+    shape (T, 2), read a block of frames at a time (:func:`drift_subtracted` removes it).
+
+    Raises
+    ------
+    ValueError
+        Where a position is not finite.
+    """
+    x0 = src[0]
+    out = np.empty((src.shape[0], 2))
+    for s, e in src.frame_blocks():
+        d = src.frames(s, e) - x0
+        if not np.all(np.isfinite(d)):
+            raise ValueError("non-finite positions")
+        out[s:e] = d.mean(axis=1)
+    return out
+
+
+def block_displacements(xc: np.ndarray, drift: np.ndarray | None) -> np.ndarray:
+    """Displacements from frame 0 of a block of cells ``xc`` (T, n, 2), less the drift of
+    all cells (:func:`frame_drift`; None: none removed): :func:`drift_subtracted` cell by cell."""
+    d = xc - xc[:1]
+    return d if drift is None else d - drift[:, None, :]
+
+
+def msd_curve_streamed(src, *, subtract_drift: bool = True, block_bytes: int | None = None,
+                       drift: np.ndarray | None = None) -> np.ndarray:
+    """:func:`msd_curve` (its ``msd``, one block) of a frame source, a block of cells at a time.
+
+    Parameters
+    ----------
+    src : fcsweep.analysis.frames.FrameSource
+        Unwrapped centroids, shape (T, N, 2).
+    subtract_drift : bool
+    block_bytes : int, optional
+        Bytes of one block of cells over all frames
+        (default :data:`fcsweep.analysis.frames.BLOCK_BYTES`).
+    drift : ndarray, shape (T, 2), optional
+        :func:`frame_drift` of ``src`` where already known.
+
+    Returns
+    -------
+    ndarray, shape (T,)
+        The same curve as ``msd_curve(x, n_blocks=1)[0]`` within rounding (each cell's
+        window MSD is freud's on the same displacements; only the sums over cells are
+        split), with a peak memory of a few blocks instead of several ``(T, N, 2)`` arrays.
+    """
+    T, N = src.shape[:2]
+    if T < 2:
+        raise ValueError("need at least two frames for an MSD")
+    if not subtract_drift:
+        drift = None
+    elif drift is None:
+        drift = frame_drift(src)
+    total = np.zeros(T)
+    csum = np.zeros((T, 2))
+    for lo, hi in src.cell_blocks(block_bytes):
+        for _, xc in work_blocks(src.cells(lo, hi)):
+            disp = block_displacements(xc, drift)
+            total += particle_msd(disp).sum(axis=1)
+            csum += disp.sum(axis=1)
+    return total / N - np.sum(window_mean(csum / N) ** 2, axis=-1)

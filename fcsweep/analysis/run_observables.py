@@ -24,7 +24,8 @@ from typing import Mapping
 import numpy as np
 
 from fcsweep.analysis import cage, correlation_fft, diffusion, kthny, order, shapes, voronoi
-from fcsweep.analysis.msd import log_lag_indices, msd_curve
+from fcsweep.analysis.frames import as_source
+from fcsweep.analysis.msd import frame_drift, log_lag_indices, msd_curve_streamed
 from fcsweep.analysis.phase import classify_percolation, phase_evidence, phase_label
 from fcsweep.analysis.reasons import reason_value
 from fcsweep.analysis.stats import time_average
@@ -74,6 +75,11 @@ class RunFrames:
         Wrapped centroids on the structure frames.
     unwrapped : ndarray, shape (len(plan.frames), N, 2)
         Unwrapped centroids on every frame after the transient.
+
+    Each array may be a :class:`fcsweep.analysis.frames.FrameSource` of that shape
+    instead: the steps then read it a block of frames or of cells at a time
+    (:func:`fcsweep.results.analyze.read_run_frames` passes a trajectory's that way), and
+    the peak memory is linear in N and bounded in frames.
     """
 
     source: str
@@ -151,7 +157,7 @@ def compute_observables(run: RunFrames, settings: Mapping, *, curves: bool = Tru
         raise AnalysisError(f"{run.source}: frames are not equally spaced in time")
     R0 = float(run.params.get("R0", 1.0))
     boxr = run.box / R0  # lengths in units of R0 from here on
-    pos = run.positions / R0
+    pos = as_source(run.positions).scaled(R0)
     sc, cv, q_start = shape_observables(run, settings)
     # one Voronoi tessellation per structure frame serves the defects and Psi6
     acc = _OrderFrames(pos.shape[1], boxr, plan.structure_frames, settings, curves)
@@ -187,17 +193,20 @@ def shape_observables(run: RunFrames, settings: Mapping):
     lo, hi, nb = settings["q_edges"]
     edges = np.linspace(float(lo), float(hi), int(nb) + 1)
     centres = 0.5 * (edges[1:] + edges[:-1])
+    acc = shapes.QStatistics(edges)
     if run.rigid:
-        q = np.full((sf.size, run.n_cells), shapes.Q_CIRCLE)
+        acc.add(np.full((sf.size, run.n_cells), shapes.Q_CIRCLE))
     elif run.shape_a is not None and run.shape_b is not None:
-        q = shapes.shape_indices(run.shape_a, run.shape_b, 1.0, int(settings["q_points"]))
+        a, b = as_source(run.shape_a), as_source(run.shape_b)
+        for s, e in a.frame_blocks():  # q of a block of frames at a time
+            acc.add(shapes.shape_indices(a.frames(s, e), b.frames(s, e), 1.0, int(settings["q_points"])))
     else:
-        q = np.full((1, run.n_cells), np.nan)  # shapes not stored
-    qs = shapes.q_statistics(q, edges)
+        acc.add(np.full((1, run.n_cells), np.nan))  # shapes not stored
+    qs = acc.result()
     sc, cv = {"q_std": qs["q_std"]}, {"q_hist": (centres, qs["q_hist"])}
     start = None
-    if np.all(np.isfinite(q)):
-        for name, series in (("q_mean", q.mean(axis=1)), ("q_frac_above", (q > shapes.Q_STAR).mean(axis=1))):
+    if acc.finite:
+        for name, series in (("q_mean", qs["q_mean_frames"]), ("q_frac_above", qs["q_frac_above_frames"])):
             ta = time_average(series)
             sc[name], sc[f"{name}_err"] = ta.mean, ta.err
             if name == "q_mean":
@@ -342,15 +351,17 @@ def diffusion_observables(run: RunFrames, eq: np.ndarray, boxr: np.ndarray, sett
     """
     frames, t = run.plan.frames, run.time
     v0, Dr = float(run.params.get("v0", np.nan)), float(run.params.get("Dr", np.nan))
-    x = run.unwrapped
-    if not np.all(np.isfinite(x)):
-        raise AnalysisError(f"{run.source}: non-finite positions after the transient")
+    x = as_source(run.unwrapped)  # read a block of frames or of cells at a time
+    try:
+        drift = frame_drift(x)
+    except ValueError:
+        raise AnalysisError(f"{run.source}: non-finite positions after the transient") from None
     cv = {}
     if curves:
-        msd, _ = msd_curve(x, subtract_drift=bool(settings["subtract_drift"]), n_blocks=1)
+        msd = msd_curve_streamed(x, subtract_drift=bool(settings["subtract_drift"]), drift=drift)
         lags = log_lag_indices(frames.size, int(settings["msd_lags"]))
         cv["msd"] = ((t[frames] - t[frames[0]])[lags], msd[lags])
-    x = x[eq - frames[0]]
+    x = x.select(eq - frames[0])
     est = diffusion.estimate_diffusion(
         t[eq] - t[eq[0]], x, Dr=Dr, max_time_blocks=int(settings["max_time_blocks"]),
         min_block_persistence=float(settings["min_block_persistence"]),

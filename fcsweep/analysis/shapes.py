@@ -84,3 +84,53 @@ def q_statistics(q: np.ndarray, edges: np.ndarray = Q_EDGES, q_star: float = Q_S
     dens = counts / (q.size * np.diff(edges))
     return {"q_mean": float(q.mean()), "q_std": float(q.std()),
             "q_frac_above": float(np.mean(q > q_star)), "q_hist": dens, "q_edges": edges}
+
+
+class QStatistics:
+    """:func:`q_statistics` accumulated over blocks of frames (:meth:`add` each block of
+    ``q``, shape (F, N)), and the per-frame ``<q>`` and fraction above q*.
+
+    The pooled mean and spread combine the blocks' own (Chan et al.), the histogram and
+    the count above q* add up; with one block every number is :func:`q_statistics`'s.
+    """
+
+    def __init__(self, edges: np.ndarray = Q_EDGES, q_star: float = Q_STAR):
+        self.edges = np.asarray(edges, dtype=float)
+        self.q_star = q_star
+        self.n, self.mean, self.m2, self.above = 0, 0.0, 0.0, 0
+        self.counts = np.zeros(len(self.edges) - 1, dtype=np.int64)
+        self.frame_mean, self.frame_above, self.finite = [], [], True
+
+    def add(self, q: np.ndarray) -> None:
+        """Add the shape indices of a block of frames, shape (F, N)."""
+        q = np.asarray(q, dtype=float)
+        self.finite = self.finite and bool(np.all(np.isfinite(q)))
+        self.frame_mean.append(q.mean(axis=1))
+        self.frame_above.append((q > self.q_star).mean(axis=1))
+        v = q.ravel()
+        v = v[np.isfinite(v)]
+        if v.size == 0:
+            return
+        e = self.edges
+        self.counts += np.histogram(np.clip(v, e[0], np.nextafter(e[-1], -np.inf)), bins=e)[0]
+        self.above += int(np.count_nonzero(v > self.q_star))
+        mean = v.sum() / v.size
+        dev = v - mean
+        m2 = float(np.sum(dev * dev))
+        n = self.n + v.size
+        delta = mean - self.mean
+        self.mean = mean if self.n == 0 else self.mean + delta * v.size / n
+        self.m2 = m2 if self.n == 0 else self.m2 + m2 + delta * delta * self.n * v.size / n
+        self.n = n
+
+    def result(self) -> dict:
+        """The dict of :func:`q_statistics`, plus ``q_mean_frames`` and ``q_frac_above_frames``."""
+        nb = len(self.edges) - 1
+        series = {"q_mean_frames": np.concatenate(self.frame_mean) if self.frame_mean else np.zeros(0),
+                  "q_frac_above_frames": np.concatenate(self.frame_above) if self.frame_above else np.zeros(0)}
+        if self.n == 0:
+            return {"q_mean": np.nan, "q_std": np.nan, "q_frac_above": np.nan,
+                    "q_hist": np.full(nb, np.nan), "q_edges": self.edges, **series}
+        return {"q_mean": float(self.mean), "q_std": float(np.sqrt(self.m2 / self.n)),
+                "q_frac_above": float(self.above / self.n), "q_hist": self.counts / (self.n * np.diff(self.edges)),
+                "q_edges": self.edges, **series}

@@ -25,6 +25,7 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
+from fcsweep.analysis.frames import FrameSource
 from fcsweep.analysis.stats import time_average
 
 #: First entry of the seed of the label permutation of each frame (the second is the frame index).
@@ -140,7 +141,7 @@ def defect_statistics(frames_pos, box, frame_indices=None, each=None) -> dict:
 
     Parameters
     ----------
-    frames_pos : ndarray, shape (F, N, 2)
+    frames_pos : ndarray, shape (F, N, 2), or fcsweep.analysis.frames.FrameSource
     box : (Lx, Ly)
     frame_indices : array_like of int, shape (F,), optional
         Trajectory index of each frame, the seed of its label permutation
@@ -163,7 +164,8 @@ def defect_statistics(frames_pos, box, frame_indices=None, each=None) -> dict:
         ``cluster_size_counts`` (int, shape (N,), pooled over frames),
         ``n_sides_counts`` (int, shape (13,), cells with 0..12 sides pooled), ``n_frames``.
     """
-    frames_pos = np.asarray(frames_pos, dtype=float)
+    if not isinstance(frames_pos, FrameSource):  # a frame source is read a frame at a time
+        frames_pos = np.asarray(frames_pos, dtype=float)
     F, N, _ = frames_pos.shape
     frame_indices = np.arange(F) if frame_indices is None else np.asarray(frame_indices, dtype=np.int64)
     if frame_indices.shape != (F,):

@@ -74,9 +74,9 @@ class Trajectory:
     def n_frames(self) -> int:
         return int(self.time.shape[0])
 
-    def read(self, name: str, frames=None) -> np.ndarray:
+    def read(self, name: str, frames=None, cells: slice | None = None) -> np.ndarray:
         """Values of one field for the frame indices ``frames`` (negative ones count from
-        the last frame; all if None)."""
+        the last frame; all if None), of the cells ``cells`` (a slice; all if None)."""
         if name not in self.fields:
             raise TrajectoryError(f"{self.path}: field {name!r} is not stored (has {list(self.fields)})")
         n, key = self.n_frames, f"{CELLS}/{name}/value"
@@ -89,11 +89,11 @@ class Trajectory:
             uniq, inv = np.unique(idx % max(n, 1), return_inverse=True)
         if not self.live:
             with h5py.File(self.path, "r", locking=False) as f:
-                data = _rows(f[key], uniq)
+                data = _rows(f[key], uniq, cells)
         else:  # pieces, each checked on its own: a long read need not fit between two appends
             rows = max(1, LIVE_PIECE_BYTES // (8 * self.n_cells * max(2, self.modes_width)))
             pieces = [uniq[i:i + rows] for i in range(0, len(uniq), rows)] or [uniq]
-            data = _read_live(self.path, n, self._inode, lambda f, p: _rows(f[key], p), pieces)
+            data = _read_live(self.path, n, self._inode, lambda f, p: _rows(f[key], p, cells), pieces)
         return data if inv is None else data[inv]
 
     def unwrapped(self, frames=None) -> np.ndarray:
@@ -109,13 +109,14 @@ LIVE_RETRY_SECONDS = 10.0
 LIVE_PIECE_BYTES = 4 << 20
 
 
-def _rows(ds: h5py.Dataset, uniq: np.ndarray) -> np.ndarray:
-    """Rows ``uniq`` (sorted, distinct) of a dataset: one slice when contiguous."""
+def _rows(ds: h5py.Dataset, uniq: np.ndarray, cells: slice | None = None) -> np.ndarray:
+    """Rows ``uniq`` (sorted, distinct) of a dataset, columns ``cells``: one slice when contiguous."""
+    cells = slice(None) if cells is None else cells
     if uniq.size == 0:
-        return ds[0:0]
+        return ds[0:0, cells]
     if uniq[-1] - uniq[0] + 1 == uniq.size:
-        return ds[int(uniq[0]):int(uniq[-1]) + 1]
-    return ds[uniq.tolist()]
+        return ds[int(uniq[0]):int(uniq[-1]) + 1, cells]
+    return ds[uniq.tolist(), cells]
 
 
 def _committed_frames(partial: Path) -> int:

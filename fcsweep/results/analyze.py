@@ -58,6 +58,7 @@ from fcsweep.analysis.phase import (MIN_CONFIDENCE, RHO_D_PERCOLATION, cage_evid
                                     phase_label, phase_name, solid_test_estimate)
 from fcsweep.analysis.reasons import reason_flags
 from fcsweep.analysis import run_observables
+from fcsweep.analysis.frames import FrameSource
 from fcsweep.analysis.run_observables import AnalysisError, RunFrames, frame_plan
 from fcsweep.analysis.shapes import Q_EDGES, Q_POINTS
 from fcsweep.config.settings import CORRELATIONS, DEFAULT_CORRELATIONS, RunSettings
@@ -71,7 +72,8 @@ from fcsweep.model.observables import CURVES, KTHNY_FITS, LABELS, REASON_CODES, 
 
 __all__ = ["ANALYSIS_FILE", "ANALYSIS_ERROR_FILE", "DATASET_FILE", "DEFAULT_SETTINGS", "DEFAULT_TRANSIENT",
            "OPTIONAL_SETTINGS",
-           "SCALARS", "STATUS_FILE", "TRAJECTORY_FILE", "UNWRITTEN", "AnalysisError", "analyze_run", "analyze_sweep",
+           "SCALARS", "STATUS_FILE", "TRAJECTORY_FILE", "TrajectoryFrames", "UNWRITTEN", "AnalysisError",
+           "analyze_run", "analyze_sweep",
            "config_settings", "label_summary", "read_analysis", "read_run_frames", "settings_with",
            "trajectory_observables"]
 
@@ -172,10 +174,39 @@ def read_run_frames(traj, settings: dict) -> RunFrames:
     rigid = traj.modes_width == 0 and int(p.get("modes", 1) or 0) == 0
     a = b = None
     if not rigid and "shape_a" in traj.fields and "shape_b" in traj.fields:
-        a, b = traj.read("shape_a", plan.shape_frames), traj.read("shape_b", plan.shape_frames)
+        a, b = (TrajectoryFrames(traj, name, plan.shape_frames) for name in ("shape_a", "shape_b"))
     return RunFrames(source=str(traj.path), params=p, box=traj.box, time=traj.time, plan=plan, shape_a=a,
-                     shape_b=b, rigid=rigid, positions=traj.read("position", plan.structure_frames),
-                     unwrapped=traj.unwrapped(plan.frames))
+                     shape_b=b, rigid=rigid, positions=TrajectoryFrames(traj, "position", plan.structure_frames),
+                     unwrapped=TrajectoryFrames(traj, "position", plan.frames, unwrap=True))
+
+
+class TrajectoryFrames(FrameSource):
+    """One field of a trajectory on some of its frames, read from the file in pieces
+    (:class:`fcsweep.analysis.frames.FrameSource`): nothing is held but the piece asked for.
+
+    Parameters
+    ----------
+    traj : fcsweep.io.trajectory.Trajectory
+    name : str
+        ``position``, ``shape_a`` or ``shape_b``.
+    frames : array_like of int
+        Trajectory frame indices, increasing.
+    unwrap : bool
+        With ``name = "position"``: unwrapped centroids ``position + image * edges``, the
+        values of :meth:`fcsweep.io.trajectory.Trajectory.unwrapped`.
+    """
+
+    def __init__(self, traj, name: str, frames, *, unwrap: bool = False):
+        self._traj, self._name, self._unwrap = traj, name, unwrap
+        width = traj.modes_width if name.startswith("shape") else 2
+        super().__init__((traj.n_frames, traj.n_cells, width), rows=frames)
+
+    def _read(self, rows, lo, hi):
+        cells = slice(lo, hi)
+        out = np.asarray(self._traj.read(self._name, rows, cells=cells), dtype=float)
+        if self._unwrap and "image" in self._traj.fields:
+            out = out + self._traj.read("image", rows, cells=cells) * self._traj.box
+        return out
 
 
 def trajectory_observables(traj, settings: dict, *, curves: bool = True,
