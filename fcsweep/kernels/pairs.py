@@ -25,17 +25,48 @@ QUADRATURE_CODES = {"binary": QUAD_BINARY, "linear": QUAD_LINEAR, "arc": QUAD_AR
 
 
 @njit(inline="always", **NJIT)
-def pair_disc(i, dx, dy, R0, acc, coef):
+def pair_disc(i, j, dx, dy, geo, acc, coef, core):
     """Rigid discs: the exact lens-overlap force, the chord 2 sqrt(R0^2 - D^2/4) along
     the line of centres, pushing i away from j (times the contact-implicit factor when
-    ``coef > 0``)."""
+    ``coef > 0``, times core A^(core - 1) with A the lens area when ``core != 1``).
+    Discs of unequal radii (``geo[:, 5]``) push with the chord of their lens."""
+    R0 = geo[i, 5]
+    Rj = geo[j, 5]
+    if Rj != R0:
+        _disc_pair_sizes(i, dx, dy, R0, Rj, acc, core)
+        return
     D = math.sqrt(dx * dx + dy * dy)
     if D < 2.0 * R0 and D > 0.0:
         chord = 2.0 * math.sqrt(R0 * R0 - 0.25 * D * D)
         if coef > 0.0:
             chord *= contact_factor(chord, coef)
+        if core != 1.0:
+            chord *= core * lens_area(D, R0) ** (core - 1.0)
         acc[i, 0] -= chord * dx / D
         acc[i, 1] -= chord * dy / D
+
+
+@njit(**NJIT)
+def _disc_pair_sizes(i, dx, dy, Ri, Rj, acc, core):
+    """:func:`pair_disc` for discs of radii Ri != Rj: chord 2 sqrt(Ri^2 - x^2), x the
+    distance from r_i to the chord, times core A^(core - 1) (A the lens area)."""
+    D = math.sqrt(dx * dx + dy * dy)
+    if D >= Ri + Rj or D <= abs(Ri - Rj):
+        return
+    x = (D * D + Ri * Ri - Rj * Rj) / (2.0 * D)
+    hc = math.sqrt(max(Ri * Ri - x * x, 0.0))
+    chord = 2.0 * hc
+    if core != 1.0:
+        area = Ri * Ri * math.acos(x / Ri) + Rj * Rj * math.acos((D - x) / Rj) - D * hc
+        chord *= core * area ** (core - 1.0)
+    acc[i, 0] -= chord * dx / D
+    acc[i, 1] -= chord * dy / D
+
+
+@njit(inline="always", **NJIT)
+def lens_area(D, R0):
+    """Overlap area of two discs of radius R0 at distance D < 2 R0."""
+    return 2.0 * R0 * R0 * math.acos(0.5 * D / R0) - 0.5 * D * math.sqrt(4.0 * R0 * R0 - D * D)
 
 
 @njit(inline="always", **NJIT)
@@ -114,23 +145,30 @@ def pair_linear(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, 
 
 
 @njit(inline="always", **NJIT)
-def pair_arc(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tb, tid, own, orow, other, xrow):
+def pair_arc(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tb, tid, own, orow, other, xrow,
+             core):
     """Contact-arc rule for the pair (i, j), resolved on i's contour: i's arc integrals
-    into ``own[orow]`` and j's into ``other[xrow]`` (see :func:`.arcs.arc_pair`)."""
+    into ``own[orow]`` and j's into ``other[xrow]`` (see :func:`.arcs.arc_pair`).
+    Returns the overlap area when ``core != 1`` (else 0)."""
     k0, nseg = gap_window(i, j, dx, dy, True, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tb, tid)
     if may_touch(nseg, cphi.shape[0], R0, tb, tid):
-        arc_pair(i, j, dx, dy, k0, nseg, a, b, geo, R, px, py, R0, cphi, sphi, tb, tid, own, orow, other, xrow)
+        return arc_pair(i, j, dx, dy, k0, nseg, a, b, geo, R, px, py, R0, cphi, sphi, tb, tid, own, orow, other,
+                        xrow, core)
+    return 0.0
 
 
 @njit(**NJIT)
-def pair_arc_call(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tb, tid, own, orow, other, xrow):
+def pair_arc_call(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tb, tid, own, orow, other, xrow,
+                  core):
     """:func:`pair_arc` as a called function, for the all-image path (small or open
     boxes): each inlined copy of the rule costs about a minute of compilation."""
-    pair_arc(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tb, tid, own, orow, other, xrow)
+    return pair_arc(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tb, tid, own, orow, other, xrow,
+                    core)
 
 
 @njit(inline="always", **NJIT)
-def pair_weights(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad, W, tb, tid, acc, coef):
+def pair_weights(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad, W, tb, tid, acc, coef,
+                 core):
     """Add the overlap of cell j onto cell i with a point-weight rule, or rigid discs.
 
     ``(dx, dy)`` is r_j - r_i for the image of j being considered.  Binary and linear
@@ -141,7 +179,7 @@ def pair_weights(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0,
     once, for both cells: :func:`pair_arc`.)
     """
     if a.shape[1] == 0:
-        pair_disc(i, dx, dy, R0, acc, coef)
+        pair_disc(i, j, dx, dy, geo, acc, coef, core)
     elif quad == QUAD_BINARY:
         pair_binary(i, j, dx, dy, a, b, geo, px, py, R0, W)
     else:

@@ -32,5 +32,5 @@ Rates = namedtuple("Rates", "dpos dth da db")
 
 #: Indices into the float parameter vector (:func:`fcsweep.kernels.api.param_vector`).
 (P_LX, P_LY, P_R0, P_ETA, P_V0, P_MUT, P_MUS, P_DT, P_NOISE, P_SMAX, P_DMAX, P_SKIN, P_CONTACT, P_KFLOOR, P_SWEEPS,
- P_LAMMAX) = range(16)
-N_PARAMS = 16
+ P_LAMMAX, P_CORE) = range(17)
+N_PARAMS = 17
