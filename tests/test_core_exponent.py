@@ -33,14 +33,16 @@ def _max_rel(r1, r2):
 @pytest.mark.parametrize("N,p", [(16, 2.0), (64, 1.5), (64, 3.0)])
 def test_kernel_equals_twin_with_core_exponent(N, p):
     """The kernel's pair areas come from its contact arcs (two Gauss points per panel of
-    at most the contour spacing: relative error ~ (h/2)^4 ~ 1e-6 at K = 40); the twin's
-    from the converged exact overlap.  So the rates agree to 1e-5 of their scale, not to
-    round-off as at p = 1; N = 16 takes the all-image path, N = 64 the neighbour list."""
+    at most the contour spacing h: error h^5/4320 times the 4th derivative of R^2, ~1e-6
+    R0^2 per panel with modes up to 6 at this deformation, i.e. ~1e-4 of overlap areas of
+    ~0.02); the twin's from the converged exact overlap.  So the rates agree to 2e-3 of
+    their scale, not to round-off as at p = 1; N = 16 takes the all-image path, N = 64
+    the neighbour list."""
     pos, theta, a, b, box = dense_config(N, seed=3 + N, deform=0.12)
     kw = dict(eta=0.05, v0=0.03, box=box, contour_points=40, quadrature="arc", core_exponent=p)
     twin = rates(pos, theta, a, b, **kw)
     kern = kernel_rates(pos, theta, a, b, **kw)
-    assert _max_rel(twin, kern) < 1e-5
+    assert _max_rel(twin, kern) < 2e-3
     # and p really changes the rates (overlap areas here are ~0.01-0.1 R0^2)
     plain = kernel_rates(pos, theta, a, b, **{**kw, "core_exponent": 1.0})
     assert _max_rel(plain, kern) > 1e-2
@@ -95,10 +97,15 @@ def test_p_equal_1_is_bit_identical_and_keeps_run_ids():
 
 def test_harder_core_relaxes_without_raising_the_energy():
     """v0 = D_r = 0: the dynamics descend sum A^p + eta sum P (p = 2, rigid discs: exact
-    lens areas), so the energy never rises over the run."""
-    from fcsweep.simulation import Simulation
+    lens areas; a jittered lattice at area fraction 0.95, so the discs overlap unevenly),
+    so the energy never rises over the run."""
+    from fcsweep.simulation import SimParams, Simulation, State
 
-    sim = Simulation.create(16, seed=2, eta=0.0, v0=0.0, Dr=0.0, modes=0, core_exponent=2.0, density=0.85)
+    p = SimParams(N=16, seed=2, eta=0.0, v0=0.0, Dr=0.0, modes=0, core_exponent=2.0)
+    pos, _, _, _, box = dense_config(16, seed=2, M1=0, jitter=0.15)
+    z = np.zeros((16, 0))
+    sim = Simulation(p, State(pos=pos, image=np.zeros((16, 2), np.int64), theta=np.zeros(16), a=z, b=z,
+                              box=np.asarray(box, float)), np.random.default_rng(0))
 
     def energy():
         pos, box = sim.state.pos, sim.state.box

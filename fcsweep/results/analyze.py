@@ -175,7 +175,7 @@ def read_run_frames(traj, settings: dict) -> RunFrames:
         a, b = traj.read("shape_a", plan.shape_frames), traj.read("shape_b", plan.shape_frames)
     return RunFrames(source=str(traj.path), params=p, box=traj.box, time=traj.time, plan=plan, shape_a=a,
                      shape_b=b, rigid=rigid, positions=traj.read("position", plan.structure_frames),
-                     unwrapped=traj.unwrapped(plan.frames))
+                     unwrapped=traj.unwrapped(plan.frames), radii=traj.radii)
 
 
 def trajectory_observables(traj, settings: dict, *, curves: bool = True,
