@@ -48,9 +48,10 @@ def _worker() -> None:
                 sims[key] = Simulation.create(N, seed=seed, **p)
             sims[key].advance(10)  # compile / warm
         sim = sims[key]
-        t0 = time.perf_counter()
+        clock = time.process_time if req.get("cpu") else time.perf_counter
+        t0 = clock()
         sim.advance(int(req["steps"]))
-        dt = time.perf_counter() - t0
+        dt = clock() - t0
         s = sim.state
         h = hashlib.sha256(b"".join(np.ascontiguousarray(x).tobytes() for x in (s.pos, s.theta, s.a, s.b)))
         print(json.dumps({"rate": sim.params.N * int(req["steps"]) / dt, "hash": h.hexdigest()[:16],
@@ -63,7 +64,10 @@ class _Worker:
         self.proc = subprocess.Popen([sys.executable, str(Path(__file__).resolve()), "--worker"], cwd=str(tree),
                                      env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
 
+    cpu = False
+
     def ask(self, **req) -> dict:
+        req["cpu"] = self.cpu
         self.proc.stdin.write(json.dumps(req) + "\n")
         self.proc.stdin.flush()
         line = self.proc.stdout.readline()
@@ -99,28 +103,40 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=200, help="steps per block")
     ap.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--skip-ab", action="store_true", help="only the extensions' costs")
+    ap.add_argument("--skip-extensions", action="store_true", help="only the A/B against main")
+    ap.add_argument("--quadratures", default="binary,arc", help="comma list (default binary,arc)")
+    ap.add_argument("--cpu", action="store_true",
+                    help="time each block by the worker's CPU time (time.process_time: less sensitive to other "
+                         "load on a shared machine) instead of wall time")
     args = ap.parse_args()
     if args.worker:
         _worker()
         return
     blocks = max(5, args.blocks)
     base = {"N": args.N, "seed": 3, "eta": 0.05, "v0": 0.03}
+    quads = [q for q in args.quadratures.split(",") if q]
+    _Worker.cpu = bool(args.cpu)
     ours = _Worker(HERE)
+    print(f"timing: {'CPU' if args.cpu else 'wall'} time, N = {args.N}, {args.steps} steps x {blocks} blocks", flush=True)
     print(f"{'comparison (a / b)':44s} {'a cell-st/s':>12s} {'b cell-st/s':>12s} {'b / a':>8s}", flush=True)
     if not args.skip_ab:
         ref = _Worker(args.main)
-        for q in ("binary", "arc"):
+        for q in quads:
             p = {**base, "quadrature": q}
             _compare(f"main / this, extensions off, {q}", ref, q, p, ours, q, p, args.steps, blocks, True)
         ref.close()
-    for q in ("binary", "arc"):
+    if args.skip_extensions:
+        ours.close()
+        return
+    for q in quads:
         off = {**base, "quadrature": q, "initial": "disordered"}
         on = {**off, "size_distribution": "bidisperse"}
         _compare(f"this: sizes off / bidisperse, {q}", ours, f"d{q}", off, ours, f"s{q}", on, args.steps, blocks,
                  False)
     off = {**base, "quadrature": "arc"}
-    _compare("this: core_exponent 1 / 2, arc", ours, "arc", off, ours, "core", {**off, "core_exponent": 2.0},
-             args.steps, blocks, False)
+    if "arc" in quads:
+        _compare("this: core_exponent 1 / 2, arc", ours, "arc", off, ours, "core", {**off, "core_exponent": 2.0},
+                 args.steps, blocks, False)
     ours.close()
 
 

@@ -25,30 +25,25 @@ QUADRATURE_CODES = {"binary": QUAD_BINARY, "linear": QUAD_LINEAR, "arc": QUAD_AR
 
 
 @njit(inline="always", **NJIT)
-def pair_disc(i, j, dx, dy, geo, acc, coef, core):
+def pair_disc(i, dx, dy, R0, acc, coef):
     """Rigid discs: the exact lens-overlap force, the chord 2 sqrt(R0^2 - D^2/4) along
     the line of centres, pushing i away from j (times the contact-implicit factor when
-    ``coef > 0``, times core A^(core - 1) with A the lens area when ``core != 1``).
-    Discs of unequal radii (``geo[:, 5]``) push with the chord of their lens."""
-    R0 = geo[i, 5]
-    Rj = geo[j, 5]
-    if Rj != R0:
-        _disc_pair_sizes(i, dx, dy, R0, Rj, acc, core)
-        return
+    ``coef > 0``).  (Equal radii and core exponent 1 only: :func:`pair_disc_ext` does
+    the rest; this body is main's, so that its compiled arithmetic stays the same bit for
+    bit under the ``contract`` fast-math flag.)"""
     D = math.sqrt(dx * dx + dy * dy)
     if D < 2.0 * R0 and D > 0.0:
         chord = 2.0 * math.sqrt(R0 * R0 - 0.25 * D * D)
         if coef > 0.0:
             chord *= contact_factor(chord, coef)
-        if core != 1.0:
-            chord *= core * lens_area(D, R0) ** (core - 1.0)
         acc[i, 0] -= chord * dx / D
         acc[i, 1] -= chord * dy / D
 
 
 @njit(**NJIT)
-def _disc_pair_sizes(i, dx, dy, Ri, Rj, acc, core):
-    """:func:`pair_disc` for discs of radii Ri != Rj: chord 2 sqrt(Ri^2 - x^2), x the
+def pair_disc_ext(i, dx, dy, Ri, Rj, acc, core):
+    """Rigid discs of radii Ri, Rj (cell size differences) and/or a core exponent: the
+    chord of their lens, 2 sqrt(Ri^2 - x^2) with x = (D^2 + Ri^2 - Rj^2) / (2 D) the
     distance from r_i to the chord, times core A^(core - 1) (A the lens area)."""
     D = math.sqrt(dx * dx + dy * dy)
     if D >= Ri + Rj or D <= abs(Ri - Rj):
@@ -57,16 +52,10 @@ def _disc_pair_sizes(i, dx, dy, Ri, Rj, acc, core):
     hc = math.sqrt(max(Ri * Ri - x * x, 0.0))
     chord = 2.0 * hc
     if core != 1.0:
-        area = Ri * Ri * math.acos(x / Ri) + Rj * Rj * math.acos((D - x) / Rj) - D * hc
+        area = Ri * Ri * math.acos(min(x / Ri, 1.0)) + Rj * Rj * math.acos(min((D - x) / Rj, 1.0)) - D * hc
         chord *= core * area ** (core - 1.0)
     acc[i, 0] -= chord * dx / D
     acc[i, 1] -= chord * dy / D
-
-
-@njit(inline="always", **NJIT)
-def lens_area(D, R0):
-    """Overlap area of two discs of radius R0 at distance D < 2 R0."""
-    return 2.0 * R0 * R0 * math.acos(0.5 * D / R0) - 0.5 * D * math.sqrt(4.0 * R0 * R0 - D * D)
 
 
 @njit(inline="always", **NJIT)
@@ -179,7 +168,10 @@ def pair_weights(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0,
     once, for both cells: :func:`pair_arc`.)
     """
     if a.shape[1] == 0:
-        pair_disc(i, j, dx, dy, geo, acc, coef, core)
+        if core == 1.0 and geo[i, 5] == R0 and geo[j, 5] == R0:
+            pair_disc(i, dx, dy, R0, acc, coef)  # main's path, R0 from the parameter vector
+        else:  # per-cell radii or a core exponent (never with a contact integrator)
+            pair_disc_ext(i, dx, dy, geo[i, 5], geo[j, 5], acc, core)
     elif quad == QUAD_BINARY:
         pair_binary(i, j, dx, dy, a, b, geo, px, py, R0, W)
     else:
