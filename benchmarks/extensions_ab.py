@@ -104,6 +104,7 @@ def main() -> None:
     ap.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--skip-ab", action="store_true", help="only the extensions' costs")
     ap.add_argument("--skip-extensions", action="store_true", help="only the A/B against main")
+    ap.add_argument("--swap", action="store_true", help="ask this tree before main in each block (order check)")
     ap.add_argument("--quadratures", default="binary,arc", help="comma list (default binary,arc)")
     ap.add_argument("--cpu", action="store_true",
                     help="time each block by the worker's CPU time (time.process_time: less sensitive to other "
@@ -123,7 +124,10 @@ def main() -> None:
         ref = _Worker(args.main)
         for q in quads:
             p = {**base, "quadrature": q}
-            _compare(f"main / this, extensions off, {q}", ref, q, p, ours, q, p, args.steps, blocks, True)
+            if args.swap:
+                _compare(f"this / main, extensions off, {q}", ours, q, p, ref, q, p, args.steps, blocks, True)
+            else:
+                _compare(f"main / this, extensions off, {q}", ref, q, p, ours, q, p, args.steps, blocks, True)
         ref.close()
     if args.skip_extensions:
         ours.close()

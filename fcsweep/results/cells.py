@@ -226,7 +226,7 @@ def iter_frames(traj: Trajectory, frames, *, defects: bool = True):
     per_frame = 8 * N * (2 + 2 + 1 + 2 * width)
     rows = max(1, BLOCK_BYTES // max(per_frame, 1))
     has = set(traj.fields)
-    radii = traj.radii if defects else None  # sizes differ: the radical tessellation
+    radii = getattr(traj, "radii", None) if defects else None  # sizes differ: the radical tessellation
     for lo in range(0, frames.size, rows):
         block = frames[lo:lo + rows]
         pos = traj.read("position", block)

@@ -183,7 +183,8 @@ def _frame(traj, k):
     from fcsweep.analysis import shapes, voronoi
 
     R0 = float(traj.params.get("R0", 1.0))
-    radii = None if traj.radii is None else traj.radii / R0
+    radii = getattr(traj, "radii", None)  # per-cell radii when sizes differ (duck-typed readers: none)
+    radii = None if radii is None else radii / R0
     pos = traj.read("position", [k])[0] / R0
     box = traj.box / R0
     theta = traj.read("theta", [k])[0] if "theta" in traj.fields else np.zeros(len(pos))
