@@ -218,3 +218,19 @@ def test_config_refuses_sizes_on_the_lattice(tmp_path):
     with pytest.raises(ConfigError, match="size_distribution"):
         cfg({"size_distribution": "polydisperse"})
     check_runnable(cfg({"size_distribution": "bidisperse", "initial": "disordered"}))
+
+
+@pytest.mark.parametrize("modes", [0, 6])
+def test_unequal_circles_with_a_harder_core(modes):
+    """Both extensions at once: circles of radii 0.9 and 1.3 under the energy A^2 push
+    with 2 A chord, A and chord those of their lens (rigid discs exact; contour cells
+    through the arc rule's area, whose Gauss sums are exact for circles)."""
+    from fcsweep.model.discs import lens_area
+
+    M1 = max(modes - 1, 0)
+    z = np.zeros((2, M1))
+    for d in (1.4, 1.9, 2.1):
+        r = kernel_rates(np.array([[0.0, 0.0], [d, 0.0]]), np.zeros(2), z, z, eta=0.0, v0=0.0, radii=[0.9, 1.3],
+                         core_exponent=2.0)
+        expect = 2.0 * lens_area(d, 0.9, 1.3) * lens_chord(d, 0.9, 1.3)
+        assert r["dpos"][0, 0] == pytest.approx(-expect, rel=1e-12 if modes == 0 else 1e-6)

@@ -352,6 +352,10 @@ def arc_integrals(pos, theta, a, b, *, box=None, R0=1.0, contour_points=40, core
     Returns (N, 4 + 2(M-1)) as in :func:`rates_from_occupancy`.
     """
     from .overlap_exact import overlap_areas
+
+    if core_exponent != 1.0 and radii is not None:
+        raise NotImplementedError("the twin's exact overlap (overlap_exact) has one radius: core_exponent != 1 "
+                                  "with per-cell radii is not referenced here")
     N, M1 = a.shape
     K = int(contour_points)
     h = 2.0 * np.pi / K
