@@ -29,7 +29,8 @@ from .kernels.workspace import quadrature_code, workspace_for
 from .model.integrators import DEFAULT_INTEGRATOR, INTEGRATORS, contact_parameters, integrator_problem
 from .model.disordered import random_centres, soft_disc_relax, start_rng
 from .model.lattice import hexagonal_lattice, lattice_box
-from .model.parameters import DEFAULTS, INITIAL_STATES, PARAMETERS, SIGNS
+from .model.parameters import DEFAULTS, INITIAL_STATES, PARAMETERS, SIGNS, core_exponent_problem
+from .model.sizes import SIZE_DISTRIBUTIONS, cell_radii, effective_radius, radius_bounds, size_problem
 from .model.shape import ADMISSIBLE_BOUND, PROJECTION_MARGIN, contour_points_problem, dt_problem
 
 __all__ = ["INTEGRATORS", "SimParams", "Simulation", "SimulationError", "State"]
@@ -78,6 +79,11 @@ class SimParams:
     initial: str = DEFAULTS["initial"]
     adhesion: float = DEFAULTS["adhesion"]
     adhesion_range: float = DEFAULTS["adhesion_range"]
+    core_exponent: float = DEFAULTS["core_exponent"]
+    size_distribution: str = DEFAULTS["size_distribution"]
+    size_ratio: float = DEFAULTS["size_ratio"]
+    size_fraction: float = DEFAULTS["size_fraction"]
+    size_width: float = DEFAULTS["size_width"]
 
     def __post_init__(self):
         for name, p in PARAMETERS.items():
@@ -98,18 +104,42 @@ class SimParams:
             raise ValueError(problem)
         if self.initial not in INITIAL_STATES:
             raise ValueError(f"initial must be one of {list(INITIAL_STATES)}; got {self.initial!r}")
+        problem = core_exponent_problem(self.core_exponent, self.quadrature, self.modes, self.integrator)
+        if problem:
+            raise ValueError(problem)
+        if self.size_distribution not in SIZE_DISTRIBUTIONS:
+            raise ValueError(f"size_distribution must be one of {list(SIZE_DISTRIBUTIONS)}; "
+                             f"got {self.size_distribution!r}")
+        problem = size_problem(self.size_distribution, self.initial, self.integrator, self.size_width,
+                               self.adhesion)
+        if problem:
+            raise ValueError(problem)
         for name in (n for n, p in PARAMETERS.items() if p.type is float):
             if not math.isfinite(getattr(self, name)):
                 raise ValueError(f"{name} must be finite; got {getattr(self, name)!r}")
         problem = contour_points_problem(self.contour_points, self.modes) or dt_problem(
-            self.dt, self.eta, self.modes, self.mu_shape, self.R0)
+            self.dt, self.eta, self.modes, self.mu_shape, self.radius_range[1])
         if problem:
             raise ValueError(problem)
 
     @property
+    def radii(self):
+        """Per-cell radii R0,i drawn from the seed (:func:`fcsweep.model.sizes.cell_radii`),
+        ``None`` for monodisperse cells."""
+        return cell_radii(self.N, self.seed, self.size_distribution, self.size_ratio, self.size_fraction,
+                          self.size_width, self.R0)
+
+    @property
+    def radius_range(self) -> tuple[float, float]:
+        """(smallest, largest) radius any draw can have (R0, R0 for monodisperse cells)."""
+        return radius_bounds(self.size_distribution, self.size_ratio, self.size_fraction, self.size_width, self.R0)
+
+    @property
     def box(self) -> np.ndarray:
-        """Periodic box (Lx, Ly) of the n x n lattice at this density."""
-        _, Lx, Ly = lattice_box(self.N, self.density, self.R0)
+        """Periodic box (Lx, Ly) of the n x n lattice at this density (with sizes: at
+        area fraction sum pi R0,i^2 / (Lx Ly), :func:`fcsweep.model.sizes.effective_radius`)."""
+        R = self.R0 if self.size_distribution == "monodisperse" else effective_radius(self.radii, self.R0)
+        _, Lx, Ly = lattice_box(self.N, self.density, R)
         return np.array([Lx, Ly])
 
     def to_dict(self) -> dict:
@@ -166,18 +196,22 @@ class Simulation:
         self.state = state
         self.rng = rng
         M1 = max(params.modes - 1, 0)
+        #: Per-cell radii R0,i (``None`` for monodisperse cells: the kernels then read R0).
+        self.radii = params.radii
         self._ws = workspace_for(params.N, params.contour_points, M1, params.box, params.R0, params.quadrature,
-                                 params.integrator)
+                                 params.integrator, radii=self.radii)
         self._periodic = True
         self._quad = quadrature_code(params.quadrature)
         self._warned_pinned = False
-        spacing = 2.0 * math.pi * params.R0 / params.contour_points
+        R_min = params.R0 if self.radii is None else float(self.radii.min())
+        spacing = 2.0 * math.pi * R_min / params.contour_points
         self._prm = param_vector(
             box=params.box, R0=params.R0, eta=params.eta, v0=params.v0, mu_theta=params.mu_theta,
             mu_shape=params.mu_shape, dt=params.dt, noise_amp=math.sqrt(2.0 * params.Dr * params.dt),
             smax=PROJECTION_MARGIN * ADMISSIBLE_BOUND, dmax=spacing, adhesion=params.adhesion,
             adhesion_range=params.adhesion_range,
             **contact_parameters(params.integrator, params.dt, params.modes, params.R0, params.mu_shape),
+            **({} if params.core_exponent == 1.0 else {"core_exponent": params.core_exponent}),
         )
 
     # ------------------------------------------------------------------ construction
@@ -259,7 +293,7 @@ class Simulation:
         p = dataclasses.replace(cls._params(N, seed, params, "from_disordered"), initial="disordered")
         box = p.box
         srng = start_rng(p.seed)
-        pos, _ = soft_disc_relax(random_centres(p.N, box, srng), box, p.R0)
+        pos, _ = soft_disc_relax(random_centres(p.N, box, srng), box, p.R0, radii=p.radii)
         rng = np.random.Generator(np.random.PCG64(p.seed))
         theta = rng.uniform(0.0, 2.0 * np.pi, p.N)
         M1 = max(p.modes - 1, 0)
@@ -357,7 +391,7 @@ class Simulation:
         return kernel_rates(s.pos, s.theta, s.a, s.b, eta=p.eta, v0=p.v0, box=p.box, R0=p.R0,
                             contour_points=p.contour_points, quadrature=p.quadrature,
                             mu_theta=p.mu_theta, mu_shape=p.mu_shape, adhesion=p.adhesion,
-                            adhesion_range=p.adhesion_range)
+                            adhesion_range=p.adhesion_range, core_exponent=p.core_exponent, radii=self.radii)
 
     # ------------------------------------------------------------------ persistence
     def to_checkpoint(self) -> dict:
@@ -370,6 +404,7 @@ class Simulation:
             "params_json": json.dumps(self.params.to_dict(), sort_keys=True),
             "rng_state_json": json.dumps(self.rng.bit_generator.state),
             "fcsweep_version": __version__,
+            **({} if self.radii is None else {"radii": self.radii.copy()}),
         }
 
     @classmethod
@@ -383,6 +418,8 @@ class Simulation:
         stored.setdefault("integrator", DEFAULT_INTEGRATOR)  # the only scheme before the option existed
         stored.setdefault("initial", "lattice")  # the only start before the option existed
         params = SimParams(**stored)
+        if "radii" in ck and not np.array_equal(np.asarray(ck["radii"], float), params.radii):
+            raise ValueError("the checkpoint's radii differ from those its parameters and seed draw")
         rng = np.random.Generator(np.random.PCG64())
         rng.bit_generator.state = json.loads(str(scalar(ck["rng_state_json"])))
         state = State(pos=np.array(ck["pos"], float), image=np.array(ck["image"], np.int64),

@@ -75,6 +75,9 @@ class RunFrames:
         Wrapped centroids on the structure frames.
     unwrapped : ndarray, shape (len(plan.frames), N, 2)
         Unwrapped centroids on every frame after the transient.
+    radii : ndarray, shape (N,), or None
+        Per-cell radii R0,i when sizes differ (the defects then use the radical
+        tessellation, :func:`fcsweep.analysis.voronoi.laguerre_bonds`).
 
     Each array may be a :class:`fcsweep.analysis.frames.FrameSource` of that shape
     instead: the steps then read it a block of frames or of cells at a time
@@ -92,6 +95,7 @@ class RunFrames:
     rigid: bool
     positions: np.ndarray
     unwrapped: np.ndarray
+    radii: np.ndarray | None = None
 
     @property
     def n_cells(self) -> int:
@@ -163,7 +167,8 @@ def compute_observables(run: RunFrames, settings: Mapping, *, curves: bool = Tru
     acc = _OrderFrames(pos.shape[1], boxr, plan.structure_frames, settings, curves)
     sf = plan.structure_frames
     each = (lambda k, vn: acc.add(sf[k], pos[k], vn)) if (psi6 or curves) else None  # G6, G_r need Psi6
-    s2, c2, ds = structure_observables(pos, boxr, sf, each=each)
+    radii = None if run.radii is None else np.asarray(run.radii, dtype=float) / R0
+    s2, c2, ds = structure_observables(pos, boxr, sf, each=each, radii=radii)
     sc.update(s2)
     cv.update(c2)
     s3, c3 = acc.finish()
@@ -216,9 +221,10 @@ def shape_observables(run: RunFrames, settings: Mapping):
     return sc, cv, start
 
 
-def structure_observables(pos: np.ndarray, boxr: np.ndarray, frames: np.ndarray, each=None):
+def structure_observables(pos: np.ndarray, boxr: np.ndarray, frames: np.ndarray, each=None, radii=None):
     """Voronoi defect fraction, largest clusters (also with shuffled labels) and cluster sizes
-    (``each``: called with every frame's tessellation, :func:`voronoi.defect_statistics`).
+    (``each``: called with every frame's tessellation, :func:`voronoi.defect_statistics`;
+    ``radii``: per-cell radii, the radical tessellation).
 
     Returns
     -------
@@ -226,7 +232,7 @@ def structure_observables(pos: np.ndarray, boxr: np.ndarray, frames: np.ndarray,
     stats : dict
         :func:`fcsweep.analysis.voronoi.defect_statistics` (``rho_d_start``, ``n_sides_counts``).
     """
-    ds = voronoi.defect_statistics(pos, boxr, frame_indices=frames, each=each)
+    ds = voronoi.defect_statistics(pos, boxr, frame_indices=frames, each=each, radii=radii)
     sc = {}
     for name in ("rho_d", "largest_cluster_fraction", "largest_cluster_fraction_shuffled"):
         sc[name], sc[f"{name}_err"] = ds[name], ds[f"{name}_err"]

@@ -14,6 +14,15 @@ correlation of the labels with each other and with the graph: on a planar triang
 that is random site percolation, whose threshold is 1/2.  The permutation of the frame
 with trajectory index ``k`` is drawn from ``numpy.random.default_rng((SHUFFLE_SEED, k))``,
 so a re-analysis of the same frames gives the same numbers.
+
+Cells of different sizes (``particles/cells/R0`` in the trajectory) are tessellated by
+the radical (Laguerre, power) tessellation instead, whose edges lie where the tangent
+lengths to the two cells' circles of radius R0,i are equal, so that a large cell is not
+cut by the bisector of its small neighbour (:func:`laguerre_bonds`).  freud's Voronoi
+(voro++ ``container``) takes no radii (freud 3: ``Voronoi.compute(system)`` only), so
+the bonds come from the lower convex hull of the lifted points (x, y, x^2 + y^2 - R0,i^2)
+(scipy's qhull) over the periodic 3 x 3 images; with equal radii this is the Delaunay
+triangulation, the dual of freud's tessellation.
 """
 
 from __future__ import annotations
@@ -22,6 +31,7 @@ from dataclasses import dataclass
 
 import freud
 import numpy as np
+from scipy.spatial import ConvexHull
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
@@ -66,8 +76,45 @@ class VoronoiNeighbors:
     nlist: object
 
 
-def voronoi_neighbors(pos: np.ndarray, box) -> VoronoiNeighbors:
-    """Periodic Voronoi tessellation of the centroids ``pos`` (N, 2) in ``box`` (Lx, Ly)."""
+def laguerre_bonds(pos: np.ndarray, box, radii) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Directed bonds of the periodic radical (Laguerre) tessellation of discs of radii
+    ``radii`` at ``pos`` in ``box``: (i, j, r_j - r_i minimum image), one per edge of i.
+
+    The regular triangulation (dual of the power diagram) is the lower convex hull of
+    the points lifted to x^2 + y^2 - R_i^2; the central copy's bonds to any of the 3 x 3
+    images are kept.  A cell whose lifted point lies above the hull (a tiny cell hidden
+    among large ones) has no bonds.
+    """
+    pos = np.mod(np.asarray(pos, dtype=float), np.asarray(box, dtype=float))
+    N = len(pos)
+    L = np.asarray(box, dtype=float)
+    shifts = np.array([(sx, sy) for sx in (-1, 0, 1) for sy in (-1, 0, 1)], dtype=float)
+    pts = (pos[None, :, :] + shifts[:, None, :] * L).reshape(-1, 2)
+    w = np.tile(np.asarray(radii, dtype=float) ** 2, len(shifts))
+    hull = ConvexHull(np.column_stack([pts, (pts ** 2).sum(axis=1) - w]))
+    faces = hull.simplices[hull.equations[:, 2] < 0]  # the lower hull
+    e = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    e = np.concatenate([e, e[:, ::-1]])
+    centre = 4 * N  # shift (0, 0) is the fifth of the nine copies
+    e = e[(e[:, 0] >= centre) & (e[:, 0] < centre + N)]
+    e = np.unique(e, axis=0)
+    i, jimg = e[:, 0] - centre, e[:, 1]
+    vec = pts[jimg] - pts[e[:, 0]]
+    j = jimg % N
+    order = np.lexsort((j, i))
+    return i[order].astype(np.int64), j[order].astype(np.int64), vec[order]
+
+
+def voronoi_neighbors(pos: np.ndarray, box, radii=None) -> VoronoiNeighbors:
+    """Periodic Voronoi tessellation of the centroids ``pos`` (N, 2) in ``box`` (Lx, Ly);
+    with per-cell ``radii`` (N,) the radical (Laguerre) one (:func:`laguerre_bonds`)."""
+    if radii is not None:
+        i, j, vec = laguerre_bonds(pos, box, radii)
+        N = len(pos)
+        v3 = np.zeros((len(i), 3))
+        v3[:, :2] = vec
+        nl = freud.locality.NeighborList.from_arrays(N, N, i, j, v3)
+        return VoronoiNeighbors(i, j, vec, np.bincount(i, minlength=N).astype(np.int64), nl)
     system = freud_system(pos, box)
     vor = freud.locality.Voronoi()
     vor.compute(system)
@@ -136,7 +183,7 @@ def shuffled_defects(defect: np.ndarray, frame_index: int) -> np.ndarray:
     return rng.permutation(np.asarray(defect, dtype=bool))
 
 
-def defect_statistics(frames_pos, box, frame_indices=None, each=None) -> dict:
+def defect_statistics(frames_pos, box, frame_indices=None, each=None, radii=None) -> dict:
     """Defect fraction and clusters averaged over frames.
 
     Parameters
@@ -149,6 +196,8 @@ def defect_statistics(frames_pos, box, frame_indices=None, each=None) -> dict:
     each : callable, optional
         Called as ``each(f, vn)`` with every frame's :class:`VoronoiNeighbors` (``f`` in
         ``0 .. F-1``), so that another per-frame step reuses the tessellation.
+    radii : ndarray, shape (N,), optional
+        Per-cell radii (cell size differences): the radical tessellation.
 
     Returns
     -------
@@ -174,7 +223,7 @@ def defect_statistics(frames_pos, box, frame_indices=None, each=None) -> dict:
     counts = np.zeros(N, dtype=np.int64)
     sides = np.zeros(13, dtype=np.int64)
     for f in range(F):
-        vn = voronoi_neighbors(frames_pos[f], box)
+        vn = voronoi_neighbors(frames_pos[f], box, radii)
         if each is not None:
             each(f, vn)
         d = defect_mask(vn.n_sides)

@@ -24,7 +24,8 @@ the canonical JSON ``{"params": {...}, "replicate": r}``, where ``params`` holds
 parameter (grid and fixed values, defaults filled in) with floats written as
 ``repr(float(x))`` and the integer parameters (N, modes, contour_points) as ints, keys
 sorted (the parameters declared ``id_omits_default`` in the table -- ``integrator``,
-``initial`` -- only when they differ from their default, ``euler`` and ``lattice``, so ids
+``initial``, ``core_exponent`` -- only when they differ from their default, ``euler``,
+``lattice`` and 1, so ids
 from before these keys existed are unchanged).  So ``eta: 1`` and ``eta: 1.0`` give the same run.  The
 run's seed is ``SeedSequence([seed, int(run_id, 16)]).generate_state(1, uint64)[0] >> 1`` (a
 deterministic 63-bit integer), so every run has independent noise and the same run always

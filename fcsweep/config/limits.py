@@ -13,7 +13,12 @@ from typing import TYPE_CHECKING, Mapping
 
 from fcsweep.config.errors import ConfigError, _Problems, _is_int, _show
 from fcsweep.model.integrators import DEFAULT_INTEGRATOR, integrator_problem
+from fcsweep.model.parameters import core_exponent_problem
 from fcsweep.model.shape import contour_points_problem, dt_problem
+from fcsweep.model.sizes import radius_bounds, size_problem
+
+#: The size parameters, in the order :func:`fcsweep.model.sizes.radius_bounds` takes them.
+SIZE_NAMES = ("size_distribution", "size_ratio", "size_fraction", "size_width")
 
 if TYPE_CHECKING:
     from fcsweep.config.settings import RunSettings, SweepConfig
@@ -46,6 +51,10 @@ def check_runnable(cfg: "SweepConfig") -> None:
       (:func:`fcsweep.model.shape.max_stable_dt`);
     - quadrature and contour_points are not swept when every run has rigid discs;
     - the integrator runs with the quadrature and modes (:func:`fcsweep.model.integrators.integrator_problem`);
+    - size differences start disordered under Euler (:func:`fcsweep.model.sizes.size_problem`); the
+      dt limit uses the largest radius, the step bound the smallest (:func:`fcsweep.model.sizes.radius_bounds`);
+    - a core exponent != 1 has the arc rule (or rigid discs) and Euler
+      (:func:`fcsweep.model.parameters.core_exponent_problem`);
     - step length and rotational step (:func:`check_step_sizes`);
     - the largest run fits in this machine's memory (:func:`check_memory`).
 
@@ -59,11 +68,12 @@ def check_runnable(cfg: "SweepConfig") -> None:
     def where(name):
         return f"grid.{name}" if name in grid else f"model.{name}"
 
-    names = ("dt", "eta", "modes", "mu_shape", "R0", "contour_points")
+    names = ("dt", "eta", "modes", "mu_shape", "R0", "contour_points") + SIZE_NAMES
     found = {"contour_points": False, "dt": False}
-    for dt, eta, modes, mu_shape, R0, K in _grid_or_model(cfg, names):
+    for dt, eta, modes, mu_shape, R0, K, *sizes in _grid_or_model(cfg, names):
+        R_max = radius_bounds(*sizes, R0=R0)[1]  # the largest cell has the stiffest modes
         for name, problem in (("contour_points", not found["contour_points"] and contour_points_problem(K, modes)),
-                              ("dt", not found["dt"] and dt_problem(dt, eta, modes, mu_shape, R0))):
+                              ("dt", not found["dt"] and dt_problem(dt, eta, modes, mu_shape, R_max))):
             if problem:
                 problems.add(ConfigError(f"{where(name)}: {problem}"))
                 found[name] = True
@@ -73,6 +83,18 @@ def check_runnable(cfg: "SweepConfig") -> None:
         problem = integrator_problem(integrator, quadrature, modes)
         if problem:
             problems.add(ConfigError(f"{where('integrator')}: {problem}"))
+            break
+    for core, quadrature, modes, integrator in _grid_or_model(cfg, ("core_exponent", "quadrature", "modes",
+                                                                  "integrator")):
+        problem = core_exponent_problem(core, quadrature, modes, integrator)
+        if problem:
+            problems.add(ConfigError(f"{where('core_exponent')}: {problem}"))
+            break
+    for distribution, initial, integrator, width, adhesion in _grid_or_model(
+            cfg, ("size_distribution", "initial", "integrator", "size_width", "adhesion")):
+        problem = size_problem(distribution, initial, integrator, width, adhesion)
+        if problem:
+            problems.add(ConfigError(f"{where('size_distribution')}: {problem}"))
             break
     if set(grid.get("modes", (model.get("modes"),))) == {0}:
         for name in ("quadrature", "contour_points"):
@@ -160,7 +182,9 @@ def check_step_sizes(cfg: "SweepConfig") -> None:
         return f"grid.{name}" if name in cfg.grid else f"model.{name}"
 
     step = turn = None  # the first grid point of each kind: a message per kind, not per point
-    for v0, Dr, dt, R0, K, modes in _grid_or_model(cfg, ("v0", "Dr", "dt", "R0", "contour_points", "modes")):
+    for v0, Dr, dt, R0, K, modes, *sizes in _grid_or_model(cfg, ("v0", "Dr", "dt", "R0", "contour_points", "modes")
+                                                           + SIZE_NAMES):
+        R0 = radius_bounds(*sizes, R0=R0)[0]  # the smallest cell has the finest contour spacing
         limit = MAX_STEP_PER_R0 * R0
         what = f"{MAX_STEP_PER_R0:g} R0"
         if modes >= 2 and MAX_STEP_PER_SPACING * 2 * math.pi * R0 / K < limit:

@@ -8,6 +8,7 @@ Layout (see ``results_schema.md``)::
       modules/units             attrs version=[1, 0], system="SI"-free reduced units
     /particles/cells/box        attrs dimension=2, boundary=["periodic", "periodic"]
       edges                     (2,) float64  (Lx, Ly)
+    /particles/cells/R0         (N,) float64  per-cell radii R0,i, only when sizes differ
     /particles/cells/<field>/{step (T,) int64, time (T,) float64, value (T, N, ...)}
     /observables/projections/{step, time, value (T,) int64}
     /parameters                 attrs: every model/run parameter, seed, run_id, ...
@@ -65,6 +66,10 @@ __all__ = [
 
 #: Frames read at a time while verifying checksums (bounded memory for big files).
 _VERIFY_BYTES = 64 << 20
+
+
+#: What ``/particles/cells`` holds besides its time series: the box and the per-cell radii.
+STATIC = ("box", "R0")
 
 
 def open_h5(path, mode: str = "r") -> h5py.File:
@@ -136,6 +141,7 @@ def create_trajectory(
     compression_level: int = 4,
     creator_version: str = "unknown",
     frames_per_chunk: int | None = None,
+    radii: Sequence[float] | None = None,
 ) -> None:
     """Create an empty H5MD trajectory (all time series with 0 frames) and close it.
 
@@ -154,6 +160,9 @@ def create_trajectory(
     frames_per_chunk : int, optional
         Frames per HDF5 chunk of the ``value`` datasets (the frames one checkpoint adds,
         so that appends write whole chunks); capped at 4 MiB per chunk.
+    radii : sequence of float, optional
+        Per-cell radii R0,i (cell size differences), written as the time-independent
+        dataset ``particles/cells/R0``; nothing is written for equal cells.
 
     Notes
     -----
@@ -168,6 +177,10 @@ def create_trajectory(
         _write_header(f, creator_version)
         cells = f.require_group(PARTICLES)
         _write_box(cells, box)
+        if radii is not None:
+            r = cells.create_dataset("R0", data=np.asarray(radii, dtype=np.float64), fletcher32=True)
+            r.attrs["unit"] = "R0"
+            _vlen_str(r.attrs, "description", "radius R0,i of each cell (its area is pi R0,i^2), mean R0")
         clock: dict[str, h5py.Dataset] = {}
         for name in sorted(fields, key=lambda n: n != "position"):  # position first: owns step/time
             dtype, _, unit, desc = FIELD_LAYOUT[name]
@@ -253,7 +266,7 @@ def _create_series(group: h5py.Group, clock: dict, value_shape, dtype, unit: str
 def _datasets(f: h5py.File) -> list[h5py.Dataset]:
     """Every time-series dataset once (hard links counted once)."""
     seen, out = set(), []
-    groups = [g for name, g in f[PARTICLES].items() if name != "box"] + [f[OBSERVABLES]["projections"]]
+    groups = [g for name, g in f[PARTICLES].items() if name not in STATIC] + [f[OBSERVABLES]["projections"]]
     for g in groups:
         for ds in g.values():
             if ds.id not in seen:  # ObjectIDs of one object compare equal
@@ -263,7 +276,7 @@ def _datasets(f: h5py.File) -> list[h5py.Dataset]:
 
 
 def _series(f: h5py.File) -> dict[str, h5py.Group]:
-    out = {name: g for name, g in f[PARTICLES].items() if name != "box"}
+    out = {name: g for name, g in f[PARTICLES].items() if name not in STATIC}
     out["projections"] = f[OBSERVABLES]["projections"]
     return out
 

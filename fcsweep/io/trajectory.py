@@ -19,7 +19,7 @@ import h5py
 import numpy as np
 
 from fcsweep.io import schema
-from fcsweep.io.h5md import write_count
+from fcsweep.io.h5md import STATIC, write_count
 from fcsweep.io.rundir import RunDirectory
 from fcsweep.io.schema import PARAMETERS
 from fcsweep.io.schema import PARTICLES as CELLS
@@ -95,6 +95,13 @@ class Trajectory:
             pieces = [uniq[i:i + rows] for i in range(0, len(uniq), rows)] or [uniq]
             data = _read_live(self.path, n, self._inode, lambda f, p: _rows(f[key], p, cells), pieces)
         return data if inv is None else data[inv]
+
+    @property
+    def radii(self) -> np.ndarray | None:
+        """Per-cell radii R0,i (``particles/cells/R0``), ``None`` when all cells are equal."""
+        with h5py.File(self.path, "r", locking=False) as f:
+            ds = f[CELLS].get("R0")
+            return None if ds is None else np.asarray(ds[()], dtype=float)
 
     def unwrapped(self, frames=None) -> np.ndarray:
         """Unwrapped centroids ``position + image * edges``, shape (F, N, 2)."""
@@ -190,7 +197,7 @@ def _metadata(f: h5py.File, path: Path, limit: int | None):
     box = np.asarray(cells["box/edges"][()], dtype=float)
     step = np.asarray(cells["position/step"][:n])
     time = np.asarray(cells["position/time"][:n], dtype=float)
-    fields = tuple(k for k in cells if k != "box" and "value" in cells[k])
+    fields = tuple(k for k in cells if k not in STATIC and "value" in cells[k])
     width = cells["shape_a/value"].shape[-1] if "shape_a" in fields else 0
     params = {k: _plain(v) for k, v in f[PARAMETERS].attrs.items()} if PARAMETERS in f else {}
     if limit is None and value.shape[0] != time.shape[0]:

@@ -5,18 +5,20 @@ from __future__ import annotations
 import numpy as np
 
 from ..model.integrators import JACOBI_MAX_FACTOR, KAPPA_FLOOR
-from .records import (N_PARAMS, P_ADH, P_ADHR, P_CONTACT, P_DMAX, P_DT, P_ETA, P_KFLOOR, P_LAMMAX, P_LX, P_LY,
-                      P_MUS, P_MUT, P_NOISE, P_R0, P_SKIN, P_SMAX, P_SWEEPS, P_V0)
+from .records import (N_PARAMS, P_ADH, P_ADHR, P_CONTACT, P_CORE, P_DMAX, P_DT, P_ETA, P_KFLOOR, P_LAMMAX, P_LX,
+                      P_LY, P_MUS, P_MUT, P_NOISE, P_R0, P_SKIN, P_SMAX, P_SWEEPS, P_V0)
 from .step import compute_rates
 from .workspace import SKIN, quadrature_code, workspace_for
 
 
 def param_vector(*, box, R0, eta, v0, mu_theta, mu_shape, dt=0.0, noise_amp=0.0, smax=np.inf, dmax=np.inf,
-                 contact=0.0, sweeps=0, kappa_floor=KAPPA_FLOOR, adhesion=0.0, adhesion_range=0.1):
+                 contact=0.0, sweeps=0, kappa_floor=KAPPA_FLOOR, adhesion=0.0, adhesion_range=0.1,
+                 core_exponent=1.0):
     """Float parameter vector in the layout :func:`fcsweep.kernels.step.run_chunk` reads.
 
     ``contact``, ``sweeps`` and ``kappa_floor`` are an integrator's contact settings
-    (:func:`fcsweep.model.integrators.contact_parameters`; the defaults are Euler's).
+    (:func:`fcsweep.model.integrators.contact_parameters`; the defaults are Euler's);
+    ``core_exponent`` the power of the overlap area in the energy (1: the paper's).
     ``adhesion`` and ``adhesion_range`` (in R0) are :mod:`fcsweep.model.adhesion`'s gamma and
     delta / R0; with ``adhesion = 0`` the vector holds zeros for both and the step is today's.
     """
@@ -33,6 +35,7 @@ def param_vector(*, box, R0, eta, v0, mu_theta, mu_shape, dt=0.0, noise_amp=0.0,
     if adhesion > 0.0:
         prm[P_ADH] = adhesion
         prm[P_ADHR] = adhesion_range * R0
+    prm[P_CORE] = core_exponent
     return prm
 
 
@@ -48,7 +51,7 @@ def wrap_positions(pos, box):
 
 def kernel_rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, contour_points=40, quadrature="arc",
                  mu_theta=1.0, mu_shape=1.0, workspace=None, contact=0.0, sweeps=0, kappa_floor=KAPPA_FLOOR,
-                 dt=0.0, adhesion=0.0, adhesion_range=0.1):
+                 dt=0.0, adhesion=0.0, adhesion_range=0.1, core_exponent=1.0, radii=None):
     """Deterministic rates computed by the numba kernels; same contract as
     :func:`fcsweep.model.rates.rates`.
 
@@ -56,21 +59,30 @@ def kernel_rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, contour_points=
     (each pair's integrals scaled by its factor; see :mod:`fcsweep.model.integrators`),
     and ``sweeps > 0`` as well those of one contact-jacobi step of length ``dt``.
     ``adhesion > 0`` adds the adhesion rates (:func:`fcsweep.model.adhesion.adhesion_rates`).
+    ``core_exponent`` p != 1 (the energy sum_ij A_ij^p) needs the arc rule or
+    ``modes = 0`` and the Euler rates (ValueError otherwise).  ``radii`` (N,) are
+    per-cell radii R0,i (cell size differences; Euler rates only); with a given
+    ``workspace`` they are those it was made with.
     """
+    if radii is not None and (contact > 0.0 or sweeps > 0):
+        raise ValueError("per-cell radii need the euler integrator (contact = sweeps = 0)")
+    if core_exponent != 1.0 and (quadrature != "arc" or contact > 0.0 or sweeps > 0):
+        if np.asarray(a).size > 0 or contact > 0.0 or sweeps > 0:
+            raise ValueError("core_exponent != 1 needs quadrature 'arc' (or modes 0) and the euler integrator")
     pos = np.ascontiguousarray(pos, dtype=float).reshape(-1, 2)
     N = len(pos)
     theta = np.ascontiguousarray(theta, dtype=float).reshape(N)
     a = np.ascontiguousarray(a, dtype=float).reshape(N, -1)
     b = np.ascontiguousarray(b, dtype=float).reshape(N, -1)
     ws = workspace or workspace_for(N, contour_points, a.shape[1], box, R0, quadrature,
-                                    "contact-jacobi" if sweeps > 0 else "euler")
+                                    "contact-jacobi" if sweeps > 0 else "euler", radii=radii)
     if quadrature == "arc" and a.shape[1] > 0 and not ws.pair_buffer:
         raise ValueError("the arc quadrature needs a Workspace with pair_buffer=True")
     if sweeps > 0 and not ws.pair_records:
         raise ValueError("contact-jacobi needs a Workspace with pair_records=True")
     prm = param_vector(box=box, R0=R0, eta=eta, v0=v0, mu_theta=mu_theta, mu_shape=mu_shape, contact=contact,
                        sweeps=sweeps, kappa_floor=kappa_floor, dt=dt, adhesion=adhesion,
-                       adhesion_range=adhesion_range)
+                       adhesion_range=adhesion_range, core_exponent=core_exponent)
     pos = wrap_positions(pos, box)
     ws.nl[4][0] = 0  # positions are new: rebuild the neighbour list
     while not compute_rates(pos, theta, a, b, prm, box is not None, quadrature_code(quadrature),

@@ -144,8 +144,9 @@ def true_gap(i, j, k, t, h, dx, dy, a, b, geo, R0, cphi, sphi):
     """
     cp, sp = _angle(k, t, h, cphi, sphi)
     ri, dri = fourier_series(cp, sp, a, b, i)
-    r = R0 * (geo[i, 0] + ri)
-    dr = R0 * dri
+    R0i = geo[i, 5]
+    r = R0i * (geo[i, 0] + ri)
+    dr = R0i * dri
     ex = geo[i, 2] * cp - geo[i, 3] * sp
     ey = geo[i, 3] * cp + geo[i, 2] * sp
     x = r * ex
@@ -159,9 +160,10 @@ def true_gap(i, j, k, t, h, dx, dy, a, b, geo, R0, cphi, sphi):
     cj = (ox * geo[j, 2] + oy * geo[j, 3]) * inv
     sj = (oy * geo[j, 2] - ox * geo[j, 3]) * inv
     rj, drj = fourier_series(cj, sj, a, b, j)
-    g = R0 * (geo[j, 0] + rj) - dist
+    R0j = geo[j, 5]
+    g = R0j * (geo[j, 0] + rj) - dist
     dpsi = (ox * ty - oy * tx) * inv * inv
-    dg = (R0 * drj * dpsi - (ox * tx + oy * ty) * inv) * h
+    dg = (R0j * drj * dpsi - (ox * tx + oy * ty) * inv) * h
     return g, dg, x, y, r, tx * h, ty * h, dr * h
 
 
@@ -217,7 +219,9 @@ def _piece(k, t1, t2, x1, y1, r1, x2, y2, r2, h, cphi, sphi, tb, tid, nq):
 @njit(**NJIT)
 def _shape_integrals(i, nq, a, b, geo, R0, tb, tid, acc, row):
     """Add the Gauss sums of cell i's R, R cos n phi and R sin n phi over the ``nq``
-    nodes (cos, sin, weight) stored in rows 0-2 of ``tb[tid]`` to ``acc[row, 3:]``."""
+    nodes (cos, sin, weight) stored in rows 0-2 of ``tb[tid]`` to ``acc[row, 3:]``
+    (i's own radius ``geo[i, 5]``, not ``R0``)."""
+    R0 = geo[i, 5]
     M1 = a.shape[1]
     if M1 <= 5:
         a2, a3, a4, a5, a6, b2, b3, b4, b5, b6 = modes6(a, b, i)
@@ -263,6 +267,18 @@ def _shape_integrals(i, nq, a, b, geo, R0, tb, tid, acc, row):
             acc[row, 4 + M1 + m] += wr * sn
 
 
+@njit(**NJIT)
+def _half_r2(i, nq, a, b, geo, R0, tb, tid):
+    """Half the Gauss sum of cell i's R^2 over the ``nq`` nodes in rows 0-2 of
+    ``tb[tid]``: the area its arcs sweep about r_i (only for ``core_exponent != 1``)."""
+    s = 0.0
+    for q in range(nq):
+        rr, _ = fourier_series(tb[tid, 0, q], tb[tid, 1, q], a, b, i)
+        r = geo[i, 5] * (geo[i, 0] + rr)
+        s += tb[tid, 2, q] * r * r
+    return 0.5 * s
+
+
 @njit(inline="always", **NJIT)
 def may_touch(nseg, K, R0, tb, tid):
     """False if the Hermite cubics of all window segments stay below -eps: the pair does
@@ -294,9 +310,11 @@ def _crossing(x, y, kind, nc, tb, tid):
 
 
 @njit(**NJIT)
-def _other_side(j, dx, dy, nc, fx, fy, a, b, geo, R0, h, tb, tid, dst, row):
+def _other_side(j, dx, dy, nc, fx, fy, a, b, geo, R0, h, tb, tid, dst, row, core):
     """Add cell j's integrals over its arcs inside cell i, from the ``nc`` crossings that
-    :func:`arc_pair` found on i's contour, to ``dst[row]``.
+    :func:`arc_pair` found on i's contour, to ``dst[row]``.  Returns j's part of the
+    overlap area (Green's theorem about r_i: half the Gauss sum of R_j^2 over its arcs plus
+    half of d x (end - start) of each arc) when ``core != 1``, else 0.
 
     The overlap region is bounded by i's arcs inside j and j's arcs inside i, so j's
     force is minus i's, exactly.  Each of j's arcs runs counter-clockwise from a crossing
@@ -318,6 +336,7 @@ def _other_side(j, dx, dy, nc, fx, fy, a, b, geo, R0, h, tb, tid, dst, row):
     two_pi = 2.0 * math.pi
     tq = 0.0
     nq = 0
+    cross = 0.0
     for c in range(nc):
         if tb[tid, 5, c] > 0.0:
             continue
@@ -335,6 +354,8 @@ def _other_side(j, dx, dy, nc, fx, fy, a, b, geo, R0, h, tb, tid, dst, row):
         if nxt == c:
             continue
         tq += tb[tid, 7, nxt] - tb[tid, 7, c]
+        if core != 1.0:
+            cross += dx * (tb[tid, 4, nxt] - tb[tid, 4, c]) - dy * (tb[tid, 3, nxt] - tb[tid, 3, c])
         n = max(1, int(math.ceil(span / h)))
         if nq + 2 * n > tb.shape[2]:
             # only if the crossings do not alternate (arcs then overlap): keep in bounds
@@ -351,12 +372,20 @@ def _other_side(j, dx, dy, nc, fx, fy, a, b, geo, R0, h, tb, tid, dst, row):
     dst[row, 2] += tq
     if nq > 0:
         _shape_integrals(j, nq, a, b, geo, R0, tb, tid, dst, row)
+    if core != 1.0:
+        return 0.5 * cross + (_half_r2(j, nq, a, b, geo, R0, tb, tid) if nq > 0 else 0.0)
+    return 0.0
 
 
 @njit(**NJIT)
-def arc_pair(i, j, dx, dy, k0, nseg, a, b, geo, R, px, py, R0, cphi, sphi, tb, tid, own, orow, other, xrow):
+def arc_pair(i, j, dx, dy, k0, nseg, a, b, geo, R, px, py, R0, cphi, sphi, tb, tid, own, orow, other, xrow, core):
     """Integrate the overlap of cells i and j (j at offset (dx, dy)) over the contour of
     cell i, and, from the same crossings, over the contour of j.
+
+    Returns the overlap area A(i ∩ j) when ``core`` (the core exponent) is not 1, from
+    the same arcs (Green's theorem about r_i, as in :mod:`fcsweep.model.overlap_exact`),
+    else 0 without computing it: the caller scales the pair's integrals by
+    core A^(core - 1).
 
     ``tb[tid, 6, m]`` and ``tb[tid, 7, m]`` hold the gap and h * dg/dphi at window point m
     (contour index k0 + m, modulo K); segments m = 0 .. nseg - 1 join points m, m + 1.
@@ -451,7 +480,11 @@ def arc_pair(i, j, dx, dy, k0, nseg, a, b, geo, R, px, py, R0, cphi, sphi, tb, t
     own[orow, 0] += fx
     own[orow, 1] += fy
     own[orow, 2] += tq
+    area = 0.0
     if nq > 0:
         _shape_integrals(i, nq, a, b, geo, R0, tb, tid, own, orow)
+        if core != 1.0:
+            area = _half_r2(i, nq, a, b, geo, R0, tb, tid)
     if nc > 0:
-        _other_side(j, dx, dy, nc, fx, fy, a, b, geo, R0, h, tb, tid, other, xrow)
+        area += _other_side(j, dx, dy, nc, fx, fy, a, b, geo, R0, h, tb, tid, other, xrow, core)
+    return area

@@ -9,8 +9,10 @@ Array conventions (N cells, K contour points, M1 = M - 1 shape modes):
 - ``px, py``      float64[N, 2K+LANES]  contour point offsets x_ik - r_i in the lab
   frame, repeated periodically along the row so that an angular window never wraps
 - ``tx, ty``      like px, py: contour tangents dx/dphi (arc rule only)
-- ``geo``         float64[N, 5]   a0, bounding radius (rigorous), cos(theta),
-  sin(theta), largest sampled radius
+- ``geo``         float64[N, 6]   a0, bounding radius (rigorous), cos(theta),
+  sin(theta), largest sampled radius, and the cell's own radius R0,i (column 5: set
+  once by the :class:`.workspace.Workspace`, the mean R0 unless sizes differ; every
+  kernel reads a cell's radius there)
 """
 
 from __future__ import annotations
@@ -44,7 +46,8 @@ def geometry(theta, a, b, R0, tables, scratch, tangents):
     ``scratch`` (a :class:`.records.Scratch`: R, dR, px, py, tx, ty, geo).
 
     Loops use unsigned indices so that numba emits no wraparound checks and LLVM
-    vectorises them across contour points.
+    vectorises them across contour points.  Each cell's radius is its own, ``geo[i, 5]``
+    (``R0``, the mean, is not read: it stays in the signature for the callers).
     """
     cosn, sinn, cphi, sphi = tables
     R, dR, px, py, tx, ty, geo = scratch.R, scratch.dR, scratch.px, scratch.py, scratch.tx, scratch.ty, scratch.geo
@@ -53,6 +56,7 @@ def geometry(theta, a, b, R0, tables, scratch, tangents):
     L = np.uint64(px.shape[1])
     for i in prange(N):
         ui = np.uint64(i)
+        R0i = geo[i, 5]
         s2 = 0.0
         s1 = 0.0
         sn1 = 0.0
@@ -68,8 +72,8 @@ def geometry(theta, a, b, R0, tables, scratch, tangents):
         geo[i, 2] = c
         geo[i, 3] = s
         if M1 == 0:  # rigid discs: no contour is needed
-            geo[i, 1] = R0
-            geo[i, 4] = R0
+            geo[i, 1] = R0i
+            geo[i, 4] = R0i
             continue
         if M1 <= 5:
             a2, a3, a4, a5, a6, b2, b3, b4, b5, b6 = modes6(a, b, i)
@@ -89,8 +93,8 @@ def geometry(theta, a, b, R0, tables, scratch, tangents):
                     R[ui, k] += am * cosn[m, k] + bm * sinn[m, k]
                     dR[ui, k] += n * (bm * cosn[m, k] - am * sinn[m, k])
         for k in range(K):
-            r = R0 * R[ui, k]
-            d = R0 * dR[ui, k]
+            r = R0i * R[ui, k]
+            d = R0i * dR[ui, k]
             R[ui, k] = r
             dR[ui, k] = d
             ex = c * cphi[k] - s * sphi[k]
@@ -119,12 +123,14 @@ def geometry(theta, a, b, R0, tables, scratch, tangents):
         geo[i, 4] = rho
         # rigorous bounding radius: R0 (a0 + sum |c_n|), or the largest sample plus the
         # most R can rise within half a point spacing, (pi/K) max|R'| <= (pi/K) R0 sum n|c_n|
-        geo[i, 1] = min(R0 * (a0 + s1), rho + math.pi / cphi.shape[0] * R0 * sn1)
+        geo[i, 1] = min(R0i * (a0 + s1), rho + math.pi / cphi.shape[0] * R0i * sn1)
 
 
 @njit(**NJIT)
 def gap_at(ox, oy, j, a, b, geo, R0):
-    """Radial gap R_j(psi) - |d| of the offset d = (ox, oy) from the centre of cell j."""
+    """Radial gap R_j(psi) - |d| of the offset d = (ox, oy) from the centre of cell j
+    (``R0`` unused: j's radius is ``geo[j, 5]``)."""
+    R0 = geo[j, 5]
     d2 = ox * ox + oy * oy
     r = math.sqrt(d2)
     if r < 1e-300:

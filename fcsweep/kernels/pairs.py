@@ -28,7 +28,9 @@ QUADRATURE_CODES = {"binary": QUAD_BINARY, "linear": QUAD_LINEAR, "arc": QUAD_AR
 def pair_disc(i, dx, dy, R0, acc, coef):
     """Rigid discs: the exact lens-overlap force, the chord 2 sqrt(R0^2 - D^2/4) along
     the line of centres, pushing i away from j (times the contact-implicit factor when
-    ``coef > 0``)."""
+    ``coef > 0``).  (Equal radii and core exponent 1 only: :func:`pair_disc_ext` does
+    the rest; this body is main's, so that its compiled arithmetic stays the same bit for
+    bit under the ``contract`` fast-math flag.)"""
     D = math.sqrt(dx * dx + dy * dy)
     if D < 2.0 * R0 and D > 0.0:
         chord = 2.0 * math.sqrt(R0 * R0 - 0.25 * D * D)
@@ -36,6 +38,24 @@ def pair_disc(i, dx, dy, R0, acc, coef):
             chord *= contact_factor(chord, coef)
         acc[i, 0] -= chord * dx / D
         acc[i, 1] -= chord * dy / D
+
+
+@njit(**NJIT)
+def pair_disc_ext(i, dx, dy, Ri, Rj, acc, core):
+    """Rigid discs of radii Ri, Rj (cell size differences) and/or a core exponent: the
+    chord of their lens, 2 sqrt(Ri^2 - x^2) with x = (D^2 + Ri^2 - Rj^2) / (2 D) the
+    distance from r_i to the chord, times core A^(core - 1) (A the lens area)."""
+    D = math.sqrt(dx * dx + dy * dy)
+    if D >= Ri + Rj or D <= abs(Ri - Rj):
+        return
+    x = (D * D + Ri * Ri - Rj * Rj) / (2.0 * D)
+    hc = math.sqrt(max(Ri * Ri - x * x, 0.0))
+    chord = 2.0 * hc
+    if core != 1.0:
+        area = Ri * Ri * math.acos(min(x / Ri, 1.0)) + Rj * Rj * math.acos(min((D - x) / Rj, 1.0)) - D * hc
+        chord *= core * area ** (core - 1.0)
+    acc[i, 0] -= chord * dx / D
+    acc[i, 1] -= chord * dy / D
 
 
 @njit(inline="always", **NJIT)
@@ -114,23 +134,30 @@ def pair_linear(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, 
 
 
 @njit(inline="always", **NJIT)
-def pair_arc(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tb, tid, own, orow, other, xrow):
+def pair_arc(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tb, tid, own, orow, other, xrow,
+             core):
     """Contact-arc rule for the pair (i, j), resolved on i's contour: i's arc integrals
-    into ``own[orow]`` and j's into ``other[xrow]`` (see :func:`.arcs.arc_pair`)."""
+    into ``own[orow]`` and j's into ``other[xrow]`` (see :func:`.arcs.arc_pair`).
+    Returns the overlap area when ``core != 1`` (else 0)."""
     k0, nseg = gap_window(i, j, dx, dy, True, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tb, tid)
     if may_touch(nseg, cphi.shape[0], R0, tb, tid):
-        arc_pair(i, j, dx, dy, k0, nseg, a, b, geo, R, px, py, R0, cphi, sphi, tb, tid, own, orow, other, xrow)
+        return arc_pair(i, j, dx, dy, k0, nseg, a, b, geo, R, px, py, R0, cphi, sphi, tb, tid, own, orow, other,
+                        xrow, core)
+    return 0.0
 
 
 @njit(**NJIT)
-def pair_arc_call(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tb, tid, own, orow, other, xrow):
+def pair_arc_call(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tb, tid, own, orow, other, xrow,
+                  core):
     """:func:`pair_arc` as a called function, for the all-image path (small or open
     boxes): each inlined copy of the rule costs about a minute of compilation."""
-    pair_arc(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tb, tid, own, orow, other, xrow)
+    return pair_arc(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tb, tid, own, orow, other, xrow,
+                    core)
 
 
 @njit(inline="always", **NJIT)
-def pair_weights(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad, W, tb, tid, acc, coef):
+def pair_weights(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad, W, tb, tid, acc, coef,
+                 core):
     """Add the overlap of cell j onto cell i with a point-weight rule, or rigid discs.
 
     ``(dx, dy)`` is r_j - r_i for the image of j being considered.  Binary and linear
@@ -141,7 +168,10 @@ def pair_weights(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0,
     once, for both cells: :func:`pair_arc`.)
     """
     if a.shape[1] == 0:
-        pair_disc(i, dx, dy, R0, acc, coef)
+        if core == 1.0 and geo[i, 5] == R0 and geo[j, 5] == R0:
+            pair_disc(i, dx, dy, R0, acc, coef)  # main's path, R0 from the parameter vector
+        else:  # per-cell radii or a core exponent (never with a contact integrator)
+            pair_disc_ext(i, dx, dy, geo[i, 5], geo[j, 5], acc, core)
     elif quad == QUAD_BINARY:
         pair_binary(i, j, dx, dy, a, b, geo, px, py, R0, W)
     else:

@@ -19,7 +19,7 @@ from .contacts import (J_DEPTH, J_DLAM, J_LAM, J_UOWN, J_UX, J_UY, add_scaled_ar
                        jacobi_factor, rates_depth_rate, record_arc_pair, scale_point_pair)
 from .options import NJIT
 from .pairs import QUAD_ARC, pair_arc, pair_arc_call, pair_weights
-from .records import P_CONTACT, P_DT, P_ETA, P_KFLOOR, P_LAMMAX, P_LX, P_LY, P_MUS, P_MUT, P_R0, P_V0
+from .records import P_CONTACT, P_CORE, P_DT, P_ETA, P_KFLOOR, P_LAMMAX, P_LX, P_LY, P_MUS, P_MUT, P_R0, P_V0
 
 
 @njit(inline="always", **NJIT)
@@ -153,6 +153,7 @@ def cell_rates(i, a, b, geo, R, dR, px, py, cosn, sinn, cphi, sphi, W, acc, R0, 
     L = np.uint64(W.shape[1])
     M1 = a.shape[1]
     ui = np.uint64(i)
+    R0i = geo[i, 5]  # the cell's own radius (``R0``, the mean, is not read)
     dphi = 2.0 * math.pi / cphi.shape[0]
     c = geo[i, 2]
     s = geo[i, 3]
@@ -196,8 +197,21 @@ def cell_rates(i, a, b, geo, R, dR, px, py, cosn, sinn, cphi, sphi, W, acc, R0, 
             uc, us, vc, vs = _mode_sums(W, R, ui, cosn, sinn, m, K)
         uc += acc[i, 4 + m]
         us += acc[i, 4 + M1 + m]
-        da[i, m] = -mu_shape * R0 * (uc - a[i, m] / (2.0 * a0) * usum - n * vs)
-        db[i, m] = -mu_shape * R0 * (us - b[i, m] / (2.0 * a0) * usum + n * vc)
+        da[i, m] = -mu_shape * R0i * (uc - a[i, m] / (2.0 * a0) * usum - n * vs)
+        db[i, m] = -mu_shape * R0i * (us - b[i, m] / (2.0 * a0) * usum + n * vc)
+
+
+@njit(inline="always", **NJIT)
+def add_core_pair(tid, pair, dst, row, other, orow, core, area):
+    """Add one pair's integrals ``pair[tid]`` times p A^(p - 1) (p = ``core``, A the
+    pair's overlap area: the gradient of A^p) to ``dst[row]``, and scale the other
+    cell's share ``other[orow]`` (if ``orow >= 0``) by the same factor."""
+    f = core * area ** (core - 1.0) if area > 0.0 else 0.0
+    for k in range(dst.shape[1]):
+        dst[row, k] += f * pair[tid, k]
+    if orow >= 0:
+        for k in range(dst.shape[1]):
+            other[orow, k] *= f
 
 
 @njit(inline="always", **NJIT)
@@ -239,6 +253,11 @@ def all_rates(pos, a, b, prm, periodic, quad, tables, scratch, nl, out, use_list
     resolving the pair into ``pbuf[tid]``.  (A cell overlapping its own periodic image,
     in boxes of a few cells, is left explicit.)  The rates are then the effective rates
     of one step of length dt, not the physical ones.
+
+    With ``core != 1`` (the core exponent p, energy sum A_ij^p) the arc rule resolves
+    each pair into ``pbuf[tid]`` as well, with its overlap area A, and adds it times
+    p A^(p - 1) (:func:`add_core_pair`); rigid discs scale the chord (:func:`.pairs.pair_disc`).
+    At p = 1 none of this runs.
     """
     cosn, sinn, cphi, sphi = tables
     R, dR, px, py, tx, ty, geo, W, tbuf, acc, pbuf = scratch
@@ -253,6 +272,7 @@ def all_rates(pos, a, b, prm, periodic, quad, tables, scratch, nl, out, use_list
     mu_shape = prm[P_MUS]
     coef = prm[P_CONTACT]
     kfloor = prm[P_KFLOOR]
+    core = prm[P_CORE]
     N = pos.shape[0]
     arc = quad == QUAD_ARC and a.shape[1] > 0
     points = coef > 0.0 and a.shape[1] > 0 and not arc
@@ -285,25 +305,28 @@ def all_rates(pos, a, b, prm, periodic, quad, tables, scratch, nl, out, use_list
                 if arc:
                     # i's share to acc[i], or first to pbuf[tid] to be scaled (one inlined
                     # copy of the rule: each costs about a minute of compilation)
-                    dst = pbuf if coef > 0.0 else acc
-                    row = tid if coef > 0.0 else i
-                    if coef > 0.0:
+                    scaled = coef > 0.0 or core != 1.0
+                    dst = pbuf if scaled else acc
+                    row = tid if scaled else i
+                    if scaled:
                         for k in range(acc.shape[1]):
                             pbuf[tid, k] = 0.0
-                    pair_arc(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tbuf, tid,
-                             dst, row, pairbuf, i * cap + p)
+                    area = pair_arc(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tbuf, tid,
+                                    dst, row, pairbuf, i * cap + p, core)
                     if jacobi:
                         record_arc_pair(i, j, i * cap + p, tid, pbuf, pairbuf, ownbuf, pinfo, acc, a, b, geo, R0,
                                         mu_theta, mu_shape, kfloor)
                     elif coef > 0.0:
                         add_scaled_arc_pair(i, j, tid, pbuf, acc, i, pairbuf, i * cap + p, a, b, geo, R0, coef,
                                             kfloor)
+                    elif scaled:
+                        add_core_pair(tid, pbuf, acc, i, pairbuf, i * cap + p, core, area)
                 else:
                     if points:
                         for k in range(W.shape[1]):
                             pbuf[tid, k] = W[i, k]
                     pair_weights(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad,
-                                 W, tbuf, tid, acc, coef)
+                                 W, tbuf, tid, acc, coef, core)
                     if points:
                         scale_point_pair(i, j, W, pbuf, tid, R, px, py, a, b, geo, R0, coef, kfloor)
         else:
@@ -323,7 +346,7 @@ def all_rates(pos, a, b, prm, periodic, quad, tables, scratch, nl, out, use_list
                                 for k in range(W.shape[1]):
                                     pbuf[tid, k] = W[i, k]
                             pair_weights(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, quad,
-                                         W, tbuf, tid, acc, coef)
+                                         W, tbuf, tid, acc, coef, core)
                             if points:
                                 scale_point_pair(i, j, W, pbuf, tid, R, px, py, a, b, geo, R0, coef, kfloor)
                         elif j != i:
@@ -332,24 +355,28 @@ def all_rates(pos, a, b, prm, periodic, quad, tables, scratch, nl, out, use_list
                             # to acc[i], or first to pbuf[tid] to be scaled (contact-implicit:
                             # i's force points away from j from either side, so the factor
                             # is the same for both cells)
-                            dst = pbuf if coef > 0.0 else acc
-                            row = tid if coef > 0.0 else i
-                            if coef > 0.0:
+                            scaled = coef > 0.0 or core != 1.0
+                            dst = pbuf if scaled else acc
+                            row = tid if scaled else i
+                            if scaled:
                                 for k in range(acc.shape[1]):
                                     pbuf[tid, k] = 0.0
                             if i < j:
-                                pair_arc_call(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0,
-                                              tbuf, tid, dst, row, pairbuf, i)
+                                area = pair_arc_call(i, j, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi,
+                                                     R0, tbuf, tid, dst, row, pairbuf, i, core)
                             else:
-                                pair_arc_call(j, i, -dx, -dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0,
-                                              tbuf, tid, pairbuf, i, dst, row)
+                                area = pair_arc_call(j, i, -dx, -dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi,
+                                                     R0, tbuf, tid, pairbuf, i, dst, row, core)
                             if coef > 0.0:
                                 add_scaled_arc_pair(i, j, tid, pbuf, acc, i, pairbuf, -1, a, b, geo, R0, coef,
                                                     kfloor)
+                            elif scaled:
+                                add_core_pair(tid, pbuf, acc, i, pairbuf, -1, core, area)
                         elif sx > 0 or (sx == 0 and sy > 0):
                             # one of the two instances of a pair with its own image: both shares
+                            # (left at p = 1 under a core exponent: boxes of a few cells only)
                             pair_arc_call(i, i, dx, dy, a, b, geo, R, dR, px, py, tx, ty, cphi, sphi, R0, tbuf,
-                                          tid, acc, i, acc, i)
+                                          tid, acc, i, acc, i, 1.0)
     # a second pass: cell_rates overwrites rows that pairs of other cells read above
     for jj in prange(N):
         j = np.int64(jj)

@@ -34,5 +34,5 @@ Rates = namedtuple("Rates", "dpos dth da db")
 #: ``P_ADH``: adhesion strength gamma (0: off); ``P_ADHR``: its range delta in length units
 #: (0 when adhesion is off, so that the neighbour lists are today's).
 (P_LX, P_LY, P_R0, P_ETA, P_V0, P_MUT, P_MUS, P_DT, P_NOISE, P_SMAX, P_DMAX, P_SKIN, P_CONTACT, P_KFLOOR, P_SWEEPS,
- P_LAMMAX, P_ADH, P_ADHR) = range(18)
-N_PARAMS = 18
+ P_LAMMAX, P_ADH, P_ADHR, P_CORE) = range(19)
+N_PARAMS = 19

@@ -64,8 +64,10 @@ def binary_window(i, j, dx, dy, k0, cnt, a, b, geo, px, py, R0, W):
     One branch-free loop that the compiler vectorises; the window is padded up to a
     multiple of LANES points (the extra points lie outside the window's cone, so they
     test outside).  ``px``, ``py`` and ``W`` have 2K + LANES periodic columns so that a
-    window never wraps.  Points beyond j's bounding circle are masked out.
+    window never wraps.  Points beyond j's bounding circle are masked out.  (In this
+    module ``R0`` is replaced by cell j's own radius ``geo[j, 5]``.)
     """
+    R0 = geo[j, 5]
     a2, a3, a4, a5, a6, b2, b3, b4, b5, b6 = modes6(a, b, j)
     a0 = geo[j, 0]
     ct = geo[j, 2]
@@ -97,6 +99,7 @@ def window_gaps6(i, j, dx, dy, k0, n, slopes, a, b, geo, px, py, tx, ty, R0, h, 
     dg/dphi = R_j'(psi) dpsi/dphi - d.t/|d| with t = dx_i/dphi the contour tangent and
     dpsi/dphi = (d x t)/|d|^2.
     """
+    R0 = geo[j, 5]
     a2, a3, a4, a5, a6, b2, b3, b4, b5, b6 = modes6(a, b, j)
     a0 = geo[j, 0]
     ct = geo[j, 2]
@@ -129,6 +132,7 @@ def window_gaps_generic(i, j, dx, dy, k0, cnt, slopes, a, b, geo, R, dR, px, py,
     recurrence; the gap) so that the compiler vectorises them across points.  Row 6 of
     ``tb`` receives g, row 7 dg/dphi when ``slopes`` is set (arc rule).
     """
+    R0 = geo[j, 5]
     K = cphi.shape[0]
     M1 = a.shape[1]
     ct = geo[j, 2]

@@ -22,6 +22,11 @@ class Workspace:
     box : (Lx, Ly) or None
         Sizes the cell-list arrays; ``None`` for open boundaries.
     R0 : float
+        The mean radius.
+    radii : ndarray, shape (N,), optional
+        Per-cell radii R0,i (cell size differences), written once to column 5 of the
+        geometry array that every kernel reads a cell's radius from; ``R0`` for all if
+        omitted.
     pair_buffer : bool
         Allocate the per-pair buffer the arc rule needs (N x list capacity x (4 + 2 M1)
         doubles: 18 MB at N = 10^4); the other rules never read it.
@@ -30,7 +35,7 @@ class Workspace:
         (N x list capacity x (4 + 2 M1 + 6) doubles); needs ``pair_buffer``.
     """
 
-    def __init__(self, N, K, M1, box, R0=1.0, pair_buffer=True, pair_records=False):
+    def __init__(self, N, K, M1, box, R0=1.0, pair_buffer=True, pair_records=False, radii=None):
         self.N, self.K, self.M1 = int(N), int(K), int(M1)
         self.pair_buffer = bool(pair_buffer)
         self.pair_records = bool(pair_records) and self.pair_buffer
@@ -42,14 +47,17 @@ class Workspace:
             np.zeros((N, 2 * K + LANES)),  # py
             np.zeros((N, 2 * K + LANES)),  # tx
             np.zeros((N, 2 * K + LANES)),  # ty
-            np.zeros((N, 5)),  # geo: a0, bounding radius, cos, sin theta, largest sampled radius
+            # geo: a0, bounding radius, cos, sin theta, largest sampled radius, own radius
+            np.zeros((N, 6)),
             np.zeros((N, 2 * K + LANES)),  # W: point weights, periodic like px
             np.zeros((numba.config.NUMBA_NUM_THREADS, 8, 4 * K + 8)),  # tbuf: window scratch, Gauss nodes
             np.zeros((N, 4 + 2 * self.M1)),  # acc: arc integrals
             # pbuf: one pair's share (contact-implicit integrator), per thread
             np.zeros((numba.config.NUMBA_NUM_THREADS, max(2 * K + LANES, 4 + 2 * self.M1))),
         )
-        # cells of side >= 2 R0 (a0 + s) >= 2 R0 a0 >= 2 R0 / sqrt(3) ... bounded count
+        self.scratch.geo[:, 5] = R0 if radii is None else np.asarray(radii, dtype=float).reshape(N)
+        # cells of side >= 2 R0 (a0 + s) >= 2 R0 a0 >= 2 R0 / sqrt(3) ... bounded count (the
+        # largest cell sets the side: with sizes it is >= the mean R0, so this bound holds)
         if box is None:
             ncell = 1
         else:
@@ -83,11 +91,11 @@ class Workspace:
 SKIN = 0.3
 
 
-def workspace_for(N, K, M1, box, R0, quadrature, integrator="euler"):
+def workspace_for(N, K, M1, box, R0, quadrature, integrator="euler", radii=None):
     """A :class:`Workspace` for one quadrature and integrator: the pair buffer only for the
-    arc rule, the pair records only for contact-jacobi."""
+    arc rule, the pair records only for contact-jacobi; ``radii`` the per-cell R0,i."""
     arc = quadrature_code(quadrature) == QUADRATURE_CODES["arc"]
-    return Workspace(N, K, M1, box, R0, pair_buffer=arc, pair_records=integrator == "contact-jacobi")
+    return Workspace(N, K, M1, box, R0, pair_buffer=arc, pair_records=integrator == "contact-jacobi", radii=radii)
 
 
 def quadrature_code(name):

@@ -98,7 +98,7 @@ def soft_disc_pairs(pos: np.ndarray, box, cutoff: float):
 
 
 def soft_disc_relax(pos, box, R0: float = 1.0, *, step: float = SOFT_DISC_STEP,
-                    iterations: int = SOFT_DISC_ITERATIONS, depth: float = SOFT_DISC_DEPTH):
+                    iterations: int = SOFT_DISC_ITERATIONS, depth: float = SOFT_DISC_DEPTH, radii=None):
     """Push discs of radius ``R0`` apart (harmonic repulsion ``(2 R0 - r)^2 / 2``, gradient
     descent) until no two overlap deeper than ``depth * R0``.
 
@@ -109,13 +109,15 @@ def soft_disc_relax(pos, box, R0: float = 1.0, *, step: float = SOFT_DISC_STEP,
     box : array_like, shape (2,)
         Periodic box ``(Lx, Ly)``.
     R0 : float
-        Disc radius.
+        Disc radius (with ``radii``: the mean radius, the unit of ``step`` and ``depth``).
     step : float
         Descent step (R0 per unit force).
     iterations : int
         Iterations at most.
     depth : float
         Deepest overlap (R0) at which the descent stops.
+    radii : array_like, shape (N,), optional
+        Per-disc radii (cell size differences): the repulsion is (R_i + R_j - r)^2 / 2.
 
     Returns
     -------
@@ -128,11 +130,18 @@ def soft_disc_relax(pos, box, R0: float = 1.0, *, step: float = SOFT_DISC_STEP,
     pos = np.array(pos, float) % box
     sigma = 2.0 * R0
     N = len(pos)
+    rad = None if radii is None else np.asarray(radii, float).reshape(N)
+    cutoff = sigma if rad is None else 2.0 * float(rad.max())
     done = 0
     while done < int(iterations):
-        i, j, d = soft_disc_pairs(pos, box, sigma)
+        i, j, d = soft_disc_pairs(pos, box, cutoff)
         r = np.sqrt(np.einsum("ij,ij->i", d, d))
-        if r.size == 0 or r.min() >= sigma - depth * R0:
+        if rad is not None:  # pairs in the cutoff that do not touch push with zero
+            sigma = rad[i] + rad[j]
+            touch = r < sigma
+            i, j, d, r, sigma = i[touch], j[touch], d[touch], r[touch], sigma[touch]
+        if r.size == 0 or (r.min() >= sigma - depth * R0 if rad is None
+                           else (r - (sigma - depth * R0)).min() >= 0.0):
             break
         # coincident centres (probability zero) get no force this iteration
         push = np.where(r > 0, (sigma - r) / np.where(r > 0, r, 1.0), 0.0)[:, None] * d

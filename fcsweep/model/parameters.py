@@ -7,8 +7,9 @@ defaults and range checks (:mod:`fcsweep.config`), the defaults and checks of
 (:mod:`fcsweep.results.aggregate`), the JSON Schema editors read (``fcsweep schema``)
 and the parameter table of configs/README.md (:func:`markdown_table`, checked by the
 tests).  What involves several parameters at once (N = n*n with n even, K > 2M, the
-tension limit of dt, the step bounds of v0*dt and Dr*dt) is checked where it is computed
-(:mod:`fcsweep.model.shape`, :func:`fcsweep.config.check_runnable`).
+tension limit of dt, the step bounds of v0*dt and Dr*dt, what ``core_exponent`` needs) is
+checked where it is computed (:mod:`fcsweep.model.shape`, :func:`core_exponent_problem`,
+:func:`fcsweep.config.check_runnable`).
 
 Lengths are in units of R0, times in units of tau = R0 / (mu F) (docs/model.md); both
 are reduced, so the CF ``units`` written to NetCDF are "1" for numbers.
@@ -21,9 +22,10 @@ from typing import Any
 
 from fcsweep.model.integrators import DEFAULT_INTEGRATOR, INTEGRATORS
 from fcsweep.model.rates import QUADRATURES
+from fcsweep.model.sizes import SIZE_DISTRIBUTIONS
 
 __all__ = ["Parameter", "PARAMETERS", "DEFAULTS", "INT_PARAMS", "STR_PARAMS", "RANGES", "ID_OMITS_DEFAULT",
-           "INITIAL_STATES", "markdown_table",
+           "INITIAL_STATES", "markdown_table", "core_exponent_problem",
            "N_RULE", "MODES_RULE", "CONTOUR_POINTS_RULE"]
 
 #: The initial states a run may start from (the ``initial`` parameter, docs/model.md).
@@ -175,6 +177,32 @@ PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
               "10⁻³ ≤ δ ≤ 0.5 (narrower wells are too stiff for any dt). No effect when `adhesion` is 0; part "
               "of the run id only when not 0.1", range=(1e-3, 0.5), sign="> 0", unit="R0",
               id_omits_default=True),
+    Parameter("core_exponent", float, 1.0, "exponent p of the overlap energy sum A_ij^p",
+              "exponent p of the overlap-area energy sum A_ij^p (1: the paper's; > 1 a harder core)",
+              "exponent p of the overlap energy Σ A_ij^p (harder core)",
+              "1 … 4; p ≠ 1 needs `quadrature: arc` (or `modes: 0`) and `integrator: euler`, refused otherwise. "
+              "Part of the run id only when not 1, so ids of existing sweeps do not change",
+              range=(1.0, 4.0), sign="> 0", id_omits_default=True),
+    Parameter("size_distribution", str, "monodisperse", "distribution of the cell radii R0_i",
+              "cell radii: monodisperse (default), bidisperse, lognormal or gaussian (truncated)",
+              "distribution of the cell radii R0,i (mean R0)",
+              "`monodisperse` (every R0,i = R0), `bidisperse` (`size_ratio`, `size_fraction`), `lognormal`, "
+              "`gaussian` (relative width `size_width`, truncated at 2 widths); drawn from the seed through a "
+              "stream of their own and scaled to mean R0; needs `initial: disordered` and `integrator: euler` "
+              "(refused otherwise). Part of the run id only when not `monodisperse`",
+              choices=SIZE_DISTRIBUTIONS, unit="", id_omits_default=True),
+    Parameter("size_ratio", float, 1.4, "bidisperse radius ratio large/small",
+              "bidisperse: radius of the large cells / radius of the small ones", "bidisperse radius ratio",
+              "1 … 3 (only with `size_distribution: bidisperse`). Part of the run id only when not 1.4",
+              range=(1.0, 3.0), sign="> 0", id_omits_default=True),
+    Parameter("size_fraction", float, 0.5, "bidisperse fraction of small cells",
+              "bidisperse: fraction of small cells", "bidisperse fraction of small cells",
+              "0 … 1 (only with `size_distribution: bidisperse`). Part of the run id only when not 0.5",
+              range=(0.0, 1.0), sign=">= 0", id_omits_default=True),
+    Parameter("size_width", float, 0.1, "relative width of the lognormal/gaussian radii",
+              "lognormal, gaussian: relative width of the radii (std / mean)", "relative width of the radii",
+              "0 … 0.3 (only with `size_distribution: lognormal` or `gaussian`). Part of the run id only when "
+              "not 0.1", range=(0.0, 0.3), sign=">= 0", id_omits_default=True),
 )}
 
 #: name -> default (``None``: must be given).
@@ -187,6 +215,23 @@ STR_PARAMS = {name: p.choices for name, p in PARAMETERS.items() if p.type is str
 ID_OMITS_DEFAULT: dict[str, Any] = {name: p.default for name, p in PARAMETERS.items() if p.id_omits_default}
 #: Bounds of the numeric parameters.
 RANGES: dict[str, tuple[float, float]] = {name: p.range for name, p in PARAMETERS.items() if p.range}
+
+
+def core_exponent_problem(core_exponent, quadrature, modes, integrator) -> str:
+    """Why ``core_exponent`` cannot run with these settings ("" if it can).
+
+    The energy sum A_ij^p needs each pair's overlap area, which the arc rule computes from
+    its contact arcs (rigid discs: the lens); the point rules have none, and the contact
+    integrators' factors are written for p = 1.
+    """
+    if core_exponent == 1.0:
+        return ""
+    if modes != 0 and quadrature != "arc":
+        return (f"core_exponent = {core_exponent:g} needs quadrature 'arc' (or modes 0): the {quadrature!r} rule "
+                "has no overlap area per pair")
+    if integrator != DEFAULT_INTEGRATOR:
+        return f"core_exponent = {core_exponent:g} needs integrator {DEFAULT_INTEGRATOR!r}; got {integrator!r}"
+    return ""
 
 
 def _default_cell(p: Parameter) -> str:

@@ -10,6 +10,10 @@ Equations (docs/model.md), with ``o_ik`` the overlap weight of contour point k o
     dtheta_i  = mu_theta sum_k o_ik R_k R'_k dphi
     da_n/dt   = -mu_shape [ sum_k o_ik R_k dR/da_n(phi_k) dphi + eta dP/da_n ]
     db_n/dt   = -mu_shape [ sum_k o_ik R_k dR/db_n(phi_k) dphi + eta dP/db_n ]
+
+With a core exponent p (energy sum_{i<j} A_ij^p + eta sum_i P_i) every pair's overlap
+terms are multiplied by dA^p/dA = p A_ij^(p-1); the arc rule and rigid discs implement
+it (the point rules have no pair area), the area from :mod:`.overlap_exact`.
 """
 
 from __future__ import annotations
@@ -19,6 +23,7 @@ import warnings
 
 import numpy as np
 
+from .discs import _cell_radii, core_factor, disc_rates
 from .shape import a0_of, amplitude_sum, mode_numbers, radius
 
 #: Quadrature rules for the overlap weights.
@@ -78,7 +83,7 @@ def _segment_weights_linear(g):
     return first + np.roll(second, 1, axis=-1)
 
 
-def occupancy(pos, theta, a, b, *, box=None, R0=1.0, contour_points=40, quadrature="binary"):
+def occupancy(pos, theta, a, b, *, box=None, R0=1.0, contour_points=40, quadrature="binary", radii=None):
     """Overlap weight o_ik of every contour point, summed over neighbours j != i.
 
     Parameters
@@ -93,6 +98,8 @@ def occupancy(pos, theta, a, b, *, box=None, R0=1.0, contour_points=40, quadratu
         (The arc rule has no point weights; see :func:`arc_integrals`.)
         ``linear``: each point is weighted by the inside fraction of the half segments
         on either side of it, from linear interpolation of the radial gap.
+    radii : ndarray, shape (N,), optional
+        Per-cell radii R0,i (cell size differences); ``R0`` for every cell if omitted.
 
     Returns
     -------
@@ -106,10 +113,11 @@ def occupancy(pos, theta, a, b, *, box=None, R0=1.0, contour_points=40, quadratu
     b = np.asarray(b, dtype=float).reshape(len(pos), -1)
     N, K = len(pos), int(contour_points)
     phi = 2.0 * np.pi * np.arange(K) / K
-    R, _ = radius(phi, a, b, R0)
+    Rc = _cell_radii(N, R0, radii)
+    R, _ = radius(phi, a, b, R0 if radii is None else Rc[:, None])
     lab = theta[:, None] + phi[None, :]
     pts = np.stack([R * np.cos(lab), R * np.sin(lab)], axis=-1)  # (N, K, 2) relative to r_i
-    Rb = R0 * (a0_of(a, b) + amplitude_sum(a, b))
+    Rb = Rc * (a0_of(a, b) + amplitude_sum(a, b))
     o = np.zeros((N, K))
     for i in range(N):
         for j in range(N):
@@ -119,22 +127,25 @@ def occupancy(pos, theta, a, b, *, box=None, R0=1.0, contour_points=40, quadratu
                 rij = pos[j] + shift - pos[i]
                 if np.hypot(*rij) >= Rb[i] + Rb[j]:
                     continue
-                g = radial_gap(pts[i], rij, theta[j], a[j], b[j], R0)
+                g = radial_gap(pts[i], rij, theta[j], a[j], b[j], Rc[j])
                 o[i] += (g > 0) if quadrature == "binary" else _segment_weights_linear(g)
     return o
 
 
-def rates_from_occupancy(o, theta, a, b, *, eta, v0, R0=1.0, mu_theta=1.0, mu_shape=1.0, arcs=None):
+def rates_from_occupancy(o, theta, a, b, *, eta, v0, R0=1.0, mu_theta=1.0, mu_shape=1.0, arcs=None, radii=None):
     """Deterministic rates from given contour weights ``o`` (N, K); see module docstring.
 
     The perimeter gradient is evaluated on the same K contour points.  ``arcs``
     (N, 4 + 2(M-1)), if given, adds overlap integrals computed on exact arcs (the arc
     rule): [force x, force y, torque, int R, int R cos n phi, int R sin n phi].
+    ``radii`` (N,), if given, are the per-cell R0,i.
     """
     theta = np.asarray(theta, dtype=float)
     N, K = o.shape
     dphi = 2.0 * np.pi / K
     phi = dphi * np.arange(K)
+    if radii is not None:
+        R0 = np.asarray(radii, dtype=float).reshape(N, 1)
     R, dR = radius(phi, a, b, R0)
     lab = theta[:, None] + phi[None, :]
     e = np.stack([np.cos(lab), np.sin(lab)], axis=-1)
@@ -204,9 +215,10 @@ def _cubic_extremum(g0, g1, m0, m1, inside):
 class _Contour:
     """Cell i's contour and the gap to one neighbour j, evaluated anywhere on the contour."""
 
-    def __init__(self, theta_i, a_i, b_i, rij, theta_j, a_j, b_j, R0):
+    def __init__(self, theta_i, a_i, b_i, rij, theta_j, a_j, b_j, R0, R0j=None):
         self.ti, self.ai, self.bi, self.rij = theta_i, a_i, b_i, rij
         self.tj, self.aj, self.bj, self.R0 = theta_j, a_j, b_j, R0
+        self.R0j = R0 if R0j is None else R0j
 
     def point(self, phi):
         """Contour point x(phi) - r_i, its tangent dx/dphi, R and R'."""
@@ -222,7 +234,7 @@ class _Contour:
         x, tan, R, dR = self.point(phi)
         d = x - self.rij
         dist = np.hypot(d[:, 0], d[:, 1])
-        Rj, dRj = radius(np.arctan2(d[:, 1], d[:, 0]) - self.tj, self.aj, self.bj, self.R0)
+        Rj, dRj = radius(np.arctan2(d[:, 1], d[:, 0]) - self.tj, self.aj, self.bj, self.R0j)
         dpsi = (d[:, 0] * tan[:, 1] - d[:, 1] * tan[:, 0]) / dist**2
         return Rj - dist, dRj * dpsi - (d * tan).sum(axis=1) / dist, x, tan, R, dR
 
@@ -322,7 +334,7 @@ def _owner(i, j, shift):
     return i < j or (i == j and (shift[0] > 0 or (shift[0] == 0 and shift[1] > 0)))
 
 
-def arc_integrals(pos, theta, a, b, *, box=None, R0=1.0, contour_points=40):
+def arc_integrals(pos, theta, a, b, *, box=None, R0=1.0, contour_points=40, core_exponent=1.0, radii=None):
     """Overlap integrals of the contact-arc rule, the numpy twin of :mod:`fcsweep.kernels.arcs`.
 
     Each pair is resolved once, on the contour of cell i (i < j).  For every contour
@@ -334,14 +346,23 @@ def arc_integrals(pos, theta, a, b, *, box=None, R0=1.0, contour_points=40):
     end-point differences (the chord turned by 90 degrees; R^2/2), the shape integrals
     two-point Gauss-Legendre.  Cell j gets minus i's force, and its torque and shape
     integrals over its own arcs between the same crossings (:func:`_other_side`).
+    With ``core_exponent`` p != 1 both cells' integrals of a pair are multiplied by
+    p A^(p-1), A the pair's exact overlap area (:func:`.overlap_exact.overlap_areas`;
+    one radius only).  ``radii`` (N,) are per-cell R0,i.
     Returns (N, 4 + 2(M-1)) as in :func:`rates_from_occupancy`.
     """
+    from .overlap_exact import overlap_areas
+
+    if core_exponent != 1.0 and radii is not None:
+        raise NotImplementedError("the twin's exact overlap (overlap_exact) has one radius: core_exponent != 1 "
+                                  "with per-cell radii is not referenced here")
     N, M1 = a.shape
     K = int(contour_points)
     h = 2.0 * np.pi / K
     eps = DIP_MARGIN * R0 * (40.0 / K) ** 4
     phi = h * np.arange(K + 1)
-    Rb = R0 * (a0_of(a, b) + amplitude_sum(a, b))
+    Rc = _cell_radii(N, R0, radii)
+    Rb = Rc * (a0_of(a, b) + amplitude_sum(a, b))
     out = np.zeros((N, 4 + 2 * M1))
     nodes = 0.5 + np.array([-0.5, 0.5]) / np.sqrt(3.0)
     for i in range(N):
@@ -352,7 +373,7 @@ def arc_integrals(pos, theta, a, b, *, box=None, R0=1.0, contour_points=40):
                 rij = pos[j] + shift - pos[i]
                 if np.hypot(*rij) >= Rb[i] + Rb[j]:
                     continue
-                c = _Contour(theta[i], a[i], b[i], rij, theta[j], a[j], b[j], R0)
+                c = _Contour(theta[i], a[i], b[i], rij, theta[j], a[j], b[j], Rc[i], Rc[j])
                 g, dg, x, _, R, _ = c.gap(phi)
                 slope = h * dg
                 own = np.zeros(4 + 2 * M1)
@@ -366,36 +387,22 @@ def arc_integrals(pos, theta, a, b, *, box=None, R0=1.0, contour_points=40):
                         own[1] += x2[0] - x1[0]
                         own[2] += 0.5 * (R2 * R2 - R1 * R1)
                         ph = phi[k] + h * (t1 + (t2 - t1) * nodes)
-                        own[3:] += _shape_sums(ph, 0.5 * (t2 - t1) * h, a[i], b[i], R0)
-                out[i] += own
-                out[j, 0:2] -= own[0:2]
+                        own[3:] += _shape_sums(ph, 0.5 * (t2 - t1) * h, a[i], b[i], Rc[i])
+                other = np.zeros(4 + 2 * M1)
+                other[0:2] = -own[0:2]
                 if crossings:
-                    out[j, 2:] += _other_side(crossings, rij, theta[j], a[j], b[j], h, R0)
+                    other[2:] = _other_side(crossings, rij, theta[j], a[j], b[j], h, Rc[j])
+                f = 1.0
+                if core_exponent != 1.0 and (own.any() or other.any()):
+                    area = overlap_areas(rij[None, :], theta[i], a[i], b[i], theta[j], a[j], b[j], R0=R0)[0]
+                    f = core_factor(area, core_exponent)
+                out[i] += f * own if f != 1.0 else own
+                out[j] += f * other if f != 1.0 else other
     return out
 
 
-def disc_rates(pos, theta, *, v0, box=None, R0=1.0):
-    """Rigid discs (``modes = 0``, the high-tension limit): the exact overlap-area force.
-
-    The overlap of two discs at distance d < 2 R0 is a lens; minus its gradient with
-    respect to r_i is the chord 2 sqrt(R0^2 - d^2/4) along (r_i - r_j)/d.  No torque.
-    """
-    N = len(pos)
-    dpos = v0 * np.stack([np.cos(theta), np.sin(theta)], axis=-1)
-    for i in range(N):
-        for j in range(N):
-            for shift in _images(box):
-                if i == j and not shift.any():
-                    continue
-                d = pos[j] + shift - pos[i]
-                dist = float(np.hypot(*d))
-                if 0.0 < dist < 2 * R0:
-                    dpos[i] -= 2 * np.sqrt(R0 * R0 - dist * dist / 4) * d / dist
-    return {"dpos": dpos, "dtheta": np.zeros(N), "da": np.zeros((N, 0)), "db": np.zeros((N, 0))}
-
-
 def rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, contour_points=40, quadrature="arc",
-          mu_theta=1.0, mu_shape=1.0):
+          mu_theta=1.0, mu_shape=1.0, core_exponent=1.0, radii=None):
     """Deterministic time derivatives of docs/model.md (no noise).
 
     Parameters
@@ -419,6 +426,12 @@ def rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, contour_points=40, qua
         Overlap rule; ``"binary"`` is the paper's.
     mu_theta, mu_shape : float
         Mobilities of theta and of the shape modes.
+    core_exponent : float
+        p of the overlap energy sum A_ij^p (1: the paper's); p != 1 needs the arc rule
+        or rigid discs (ValueError otherwise).
+    radii : array_like, shape (N,), optional
+        Per-cell radii R0,i (cell size differences: each cell's shape and area pi R0,i^2
+        are those of its own radius); ``R0`` for every cell if omitted.
 
     Returns
     -------
@@ -446,10 +459,15 @@ def rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, contour_points=40, qua
     if quadrature not in QUADRATURES:
         raise ValueError(f"quadrature must be one of {QUADRATURES}; got {quadrature!r}")
     if a.shape[1] == 0:
-        return disc_rates(pos, theta, v0=v0, box=box, R0=R0)
+        return disc_rates(pos, theta, v0=v0, box=box, R0=R0, core_exponent=core_exponent, radii=radii)
+    if core_exponent != 1.0 and quadrature != "arc":
+        raise ValueError(f"core_exponent != 1 needs quadrature 'arc' (or modes 0); got {quadrature!r}")
     if quadrature == "arc":
-        arcs = arc_integrals(pos, theta, a, b, box=box, R0=R0, contour_points=contour_points)
+        arcs = arc_integrals(pos, theta, a, b, box=box, R0=R0, contour_points=contour_points,
+                             core_exponent=core_exponent, radii=radii)
         return rates_from_occupancy(np.zeros((N, int(contour_points))), theta, a, b, eta=eta, v0=v0, R0=R0,
-                                    mu_theta=mu_theta, mu_shape=mu_shape, arcs=arcs)
-    o = occupancy(pos, theta, a, b, box=box, R0=R0, contour_points=contour_points, quadrature=quadrature)
-    return rates_from_occupancy(o, theta, a, b, eta=eta, v0=v0, R0=R0, mu_theta=mu_theta, mu_shape=mu_shape)
+                                    mu_theta=mu_theta, mu_shape=mu_shape, arcs=arcs, radii=radii)
+    o = occupancy(pos, theta, a, b, box=box, R0=R0, contour_points=contour_points, quadrature=quadrature,
+                  radii=radii)
+    return rates_from_occupancy(o, theta, a, b, eta=eta, v0=v0, R0=R0, mu_theta=mu_theta, mu_shape=mu_shape,
+                                radii=radii)

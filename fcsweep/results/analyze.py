@@ -177,7 +177,7 @@ def read_run_frames(traj, settings: dict) -> RunFrames:
         a, b = (TrajectoryFrames(traj, name, plan.shape_frames) for name in ("shape_a", "shape_b"))
     return RunFrames(source=str(traj.path), params=p, box=traj.box, time=traj.time, plan=plan, shape_a=a,
                      shape_b=b, rigid=rigid, positions=TrajectoryFrames(traj, "position", plan.structure_frames),
-                     unwrapped=TrajectoryFrames(traj, "position", plan.frames, unwrap=True))
+                     unwrapped=TrajectoryFrames(traj, "position", plan.frames, unwrap=True), radii=traj.radii)
 
 
 class TrajectoryFrames(FrameSource):

@@ -142,8 +142,11 @@ def cell_contours(pos, theta, a, b, R0: float = 1.0, points: int = DEFAULT_CONTO
     pos = np.asarray(pos, dtype=float)
     N, K = pos.shape[0], int(points)
     phi = 2.0 * np.pi * np.arange(K) / K
+    R0 = np.asarray(R0, dtype=float)
+    if R0.ndim:  # per-cell radii (cell size differences)
+        R0 = R0.reshape(N, 1)
     if np.shape(a)[-1] == 0:
-        R = np.full((N, K), float(R0))
+        R = np.broadcast_to(R0, (N, K)).astype(float)
     else:
         R = np.atleast_2d(radius(phi, a, b, R0)[0])
     ang = np.asarray(theta, dtype=float)[:, None] + phi[None, :]
@@ -201,13 +204,13 @@ class CellFrame:
         return out
 
 
-def _frame_of(traj: Trajectory, k: int, pos, img, theta, a, b, defects: bool) -> CellFrame:
+def _frame_of(traj: Trajectory, k: int, pos, img, theta, a, b, defects: bool, radii=None) -> CellFrame:
     box = np.asarray(traj.box, dtype=float)
     wrapped = np.mod(pos, box)
     img = img + np.round((pos - wrapped) / box).astype(np.int64)  # keeps position + image * box
     n_sides = defect = cluster = None
     if defects:
-        vn = voronoi.voronoi_neighbors(wrapped, box)
+        vn = voronoi.voronoi_neighbors(wrapped, box, radii)
         n_sides, defect = vn.n_sides, voronoi.defect_mask(vn.n_sides)
         cluster = cluster_ids(defect, vn.i, vn.j)
     return CellFrame(int(k), int(traj.step[k]), float(traj.time[k]), wrapped, img, theta, a, b,
@@ -223,6 +226,7 @@ def iter_frames(traj: Trajectory, frames, *, defects: bool = True):
     per_frame = 8 * N * (2 + 2 + 1 + 2 * width)
     rows = max(1, BLOCK_BYTES // max(per_frame, 1))
     has = set(traj.fields)
+    radii = getattr(traj, "radii", None) if defects else None  # sizes differ: the radical tessellation
     for lo in range(0, frames.size, rows):
         block = frames[lo:lo + rows]
         pos = traj.read("position", block)
@@ -233,7 +237,7 @@ def iter_frames(traj: Trajectory, frames, *, defects: bool = True):
         else:
             a = b = np.zeros(pos.shape[:2] + (0,))
         for r, k in enumerate(block):
-            yield _frame_of(traj, int(k), pos[r], img[r], theta[r], a[r], b[r], defects)
+            yield _frame_of(traj, int(k), pos[r], img[r], theta[r], a[r], b[r], defects, radii)
 
 
 def _contour_points(traj: Trajectory) -> int:

@@ -115,6 +115,7 @@ def export_gsd(traj_path, out, *, frames=None, unwrapped: bool = False, polygons
     box = np.asarray(traj.box, dtype=float)
     half = box / 2.0
     R0 = float(traj.params.get("R0", 1.0))
+    radii = traj.radii  # per-cell radii when sizes differ
     K = _contour_points(traj)
     N = traj.n_cells
     remove_stale(out.parent, (out.name,))
@@ -137,11 +138,11 @@ def export_gsd(traj_path, out, *, frames=None, unwrapped: bool = False, polygons
                 fr.particles.position = xyz
                 fr.particles.image = image
                 fr.particles.orientation = _quaternion_z(cf.theta).astype(np.float32)
-                fr.particles.diameter = np.full(N, 2.0 * R0, dtype=np.float32)
+                fr.particles.diameter = (np.full(N, 2.0 * R0) if radii is None else 2.0 * radii).astype(np.float32)
                 if polygons:
                     fr.particles.types = [f"cell{i}" for i in range(N)]
                     fr.particles.typeid = np.arange(N, dtype=np.uint32)
-                    body = cell_contours(np.zeros((N, 2)), np.zeros(N), cf.a, cf.b, R0, K)
+                    body = cell_contours(np.zeros((N, 2)), np.zeros(N), cf.a, cf.b, R0 if radii is None else radii, K)
                     fr.particles.type_shapes = [{"type": "Polygon", "rounding_radius": 0.0,
                                                  "vertices": v.tolist()} for v in body]
                 else:

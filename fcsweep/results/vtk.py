@@ -154,7 +154,7 @@ def export_vtk(traj_path, out_dir, *, frames=None, unwrapped: bool = False, imag
     out_dir.mkdir(parents=True, exist_ok=True)
     remove_stale(out_dir, (f"{stem}*",))
     box = np.asarray(traj.box, dtype=float)
-    R0 = float(traj.params.get("R0", 1.0))
+    R0 = float(traj.params.get("R0", 1.0)) if traj.radii is None else traj.radii  # per-cell radii if sizes differ
     K = _contour_points(traj)
     entries = []
     with _progress(idx.size, "export vtk", progress) as bar:

@@ -172,6 +172,7 @@ def new_trajectory(cfg: SweepConfig, spec: RunSpec, rd: RunDirectory, sim, finge
         compression_level=cfg.store.compression_level,
         creator_version=_version(),
         frames_per_chunk=max(1, cfg.run.checkpoint_every // cfg.run.sample_every),
+        radii=getattr(sim, "radii", None),
     )
     return fields
 

@@ -30,8 +30,11 @@ def cell_polygons(pos, theta, a, b, box, R0=1.0, points=48):
     pos = np.asarray(pos, dtype=float)
     N = pos.shape[0]
     phi = 2 * np.pi * np.arange(points) / points
+    R0 = np.asarray(R0, dtype=float)
+    if R0.ndim:  # per-cell radii (cell size differences)
+        R0 = R0.reshape(N, 1)
     if a is None or np.shape(a)[-1] == 0:
-        R = np.full((N, points), R0)
+        R = np.broadcast_to(R0, (N, points)).astype(float)
     else:
         R, _ = radius(phi, a, b, R0)
         R = np.atleast_2d(R)
@@ -124,9 +127,10 @@ class FrameArtist:
         """Diameter of a cell (2 R0) on the page, points."""
         return 2.0 * self.ax.get_position().width * self.fig.get_figwidth() * 72.0 / self.box[0]
 
-    def draw(self, pos, theta, a, b, q, defect, title=""):
-        """Replace the drawn frame; returns the figure."""
-        polys, owner = cell_polygons(pos, theta, a, b, self.box)
+    def draw(self, pos, theta, a, b, q, defect, title="", radii=None):
+        """Replace the drawn frame (``radii``: per-cell radii in R0 when sizes differ);
+        returns the figure."""
+        polys, owner = cell_polygons(pos, theta, a, b, self.box, 1.0 if radii is None else radii)
         q = np.asarray(q, dtype=float)
         defect = np.asarray(defect, dtype=bool)
         d = self._cell_points()
@@ -174,10 +178,13 @@ def snapshot(pos, theta, a, b, box, q, defect, *, R0=1.0, title="", ax=None):
 
 
 def _frame(traj, k):
-    """(pos, theta, a, b, q, defect) of frame ``k``, lengths in R0."""
+    """(pos, theta, a, b, q, defect, radii) of frame ``k``, lengths in R0 (``radii``:
+    per-cell radii when sizes differ, else None; defects then from the radical tessellation)."""
     from fcsweep.analysis import shapes, voronoi
 
     R0 = float(traj.params.get("R0", 1.0))
+    radii = getattr(traj, "radii", None)  # per-cell radii when sizes differ (duck-typed readers: none)
+    radii = None if radii is None else radii / R0
     pos = traj.read("position", [k])[0] / R0
     box = traj.box / R0
     theta = traj.read("theta", [k])[0] if "theta" in traj.fields else np.zeros(len(pos))
@@ -186,8 +193,8 @@ def _frame(traj, k):
     else:
         a = b = np.zeros((len(pos), 0))
     q = shapes.shape_indices(a, b)
-    defect = voronoi.defect_mask(voronoi.voronoi_neighbors(pos, box).n_sides)
-    return pos, theta, a, b, q, defect
+    defect = voronoi.defect_mask(voronoi.voronoi_neighbors(pos, box, radii).n_sides)
+    return pos, theta, a, b, q, defect, radii
 
 
 def _frame_title(traj, k, defect) -> str:
@@ -208,9 +215,9 @@ def snapshot_run(traj_path, frame=-1, stem=None) -> list[Path]:
 
     traj = open_trajectory(traj_path)
     k = int(frame) % traj.n_frames
-    pos, theta, a, b, q, defect = _frame(traj, k)
+    pos, theta, a, b, q, defect, radii = _frame(traj, k)
     fig = FrameArtist(traj.box / float(traj.params.get("R0", 1.0))).draw(
-        pos, theta, a, b, q, defect, _frame_title(traj, k, defect))
+        pos, theta, a, b, q, defect, _frame_title(traj, k, defect), radii)
     stem = stem or Path(traj_path).with_name(f"snapshot_frame{k}")
     return save_figure(fig, stem)
 
@@ -262,8 +269,8 @@ def movie_run(traj_path, out=None, *, fps=10, every=1, dpi=120, progress=True) -
         with imageio.get_writer(tmp, fps=fps, codec="libx264", quality=8, macro_block_size=MACRO_BLOCK,
                                 pixelformat="yuv420p", ffmpeg_log_level="error") as writer:
             for k in tqdm(frames, desc="movie", unit="frame", disable=not progress):
-                pos, theta, a, b, q, defect = _frame(traj, k)
-                art.draw(pos, theta, a, b, q, defect, _frame_title(traj, k, defect))
+                pos, theta, a, b, q, defect, radii = _frame(traj, k)
+                art.draw(pos, theta, a, b, q, defect, _frame_title(traj, k, defect), radii)
                 writer.append_data(art.rgb())
 
     return atomic_write(out, write, fsync=True, suffix=out.suffix, interruptible=True)
