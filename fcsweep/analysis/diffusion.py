@@ -217,10 +217,7 @@ def _blocks_held(x: np.ndarray, h: float, B: int, tau_r: float, fit_start: float
     with the spatial inefficiency ``g`` of the displacements over the top fit lag
     (:mod:`fcsweep.analysis.collective`): cells that move together count once."""
     Lf = x.shape[0] // B
-    hi = Lf // 2
-    lo = max(1, int(np.ceil(fit_start * hi)))
-    lags = np.arange(lo, hi + 1)
-    late = np.arange(max(lo, hi // 2), hi + 1)
+    lo, hi, lags, late = _block_lags(Lf, fit_start)
     if lags.size < 3 or late.size < 3:
         return None
     t = np.arange(Lf) * h
