@@ -4,7 +4,7 @@ Each contour point of cell i that lies inside cell j, or outside it within the r
 delta, adheres to j (docs/model.md, "Adhesion").  With the radial gap of a point x to
 cell j, h = |x - r_j| - R_j(psi) (psi the body angle of x seen from r_j; h < 0 inside),
 and a smooth step w(h) that is 1 for h <= 0, 0 for h >= delta and
-w = (1 - u)^2 (1 + 2u), u = h/delta, in between (w and w' continuous), the energy is
+w = (1 - u)^2 (1 + 2u), u = h/delta, in between (w and w' continuous), the energy is::
 
     E_adh = -gamma sum_i sum_{j != i} sum_k w(h_ij(phi_k)) s_i(phi_k) dphi,
     s_i(phi) = sqrt(R_i^2 + R_i'^2)      (the arc length element of contour i)
@@ -23,7 +23,7 @@ B. cell j's contour near i, through the gap h_ji = |y - r_i| - R_i(psi) of j's p
    y (r_i, theta_i and a_i enter R_i(psi)).
 
 With g = e_rho - (R'(psi) / rho) e_psi the gradient of h in the point (e_rho, e_psi
-the polar unit vectors of the point seen from the other centre):
+the polar unit vectors of the point seen from the other centre)::
 
     dr_i/dt     += gamma dphi [ sum_A w' s g            - sum_B w' s g ]
     dtheta_i/dt += mu_theta gamma dphi [ sum_A w' s g . R_i e_perp + sum_B w' s R_i'(psi) ]
