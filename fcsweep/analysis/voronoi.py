@@ -31,12 +31,17 @@ from dataclasses import dataclass
 
 import freud
 import numpy as np
-from scipy.spatial import ConvexHull
+from scipy.spatial import ConvexHull, Delaunay
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from fcsweep.analysis.frames import FrameSource
 from fcsweep.analysis.stats import time_average
+
+#: Above this many cells the Voronoi bonds come from scipy's Delaunay triangulation
+#: (:func:`delaunay_bonds`): freud 3.4's Voronoi ran at 4·10^5 random points and failed at
+#: 7·10^5 and on a 10^6-cell near-lattice (measured on this package's 2-D boxes).
+FREUD_VORONOI_MAX = 400_000
 
 #: First entry of the seed of the label permutation of each frame (the second is the frame index).
 SHUFFLE_SEED = 3206
@@ -105,16 +110,58 @@ def laguerre_bonds(pos: np.ndarray, box, radii) -> tuple[np.ndarray, np.ndarray,
     return i[order].astype(np.int64), j[order].astype(np.int64), vec[order]
 
 
+def delaunay_bonds(pos: np.ndarray, box, margin: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Directed bonds of the periodic Voronoi tessellation from scipy's 2-D Delaunay
+    triangulation (its dual): (i, j, r_j - r_i minimum image), one per edge of i.
+
+    The box is padded with the periodic images of the points within ``margin`` of its
+    edges (default: 6 mean spacings, far beyond a Voronoi neighbour of a dense packing);
+    the bonds of the central copy are kept.  Used where freud's Voronoi fails
+    (``FREUD_VORONOI_MAX``); the same bonds as freud's on dense packings
+    (tests/test_voronoi_large.py).
+    """
+    L = np.asarray(box, dtype=float)
+    pos = np.mod(np.asarray(pos, dtype=float), L)
+    N = len(pos)
+    m = 6.0 * np.sqrt(L.prod() / N) if margin is None else float(margin)
+    pts, idx = [pos], [np.arange(N)]
+    for sx in (-1, 0, 1):
+        for sy in (-1, 0, 1):
+            if sx == 0 and sy == 0:
+                continue
+            q = pos + np.array([sx, sy]) * L
+            near = np.all((q > -m) & (q < L + m), axis=1)
+            pts.append(q[near])
+            idx.append(np.flatnonzero(near))
+    pts, idx = np.concatenate(pts), np.concatenate(idx)
+    tri = Delaunay(pts)
+    t = tri.simplices
+    e = np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]])
+    e = np.concatenate([e, e[:, ::-1]])
+    e = np.unique(e[e[:, 0] < N], axis=0)
+    i, j = e[:, 0], idx[e[:, 1]]
+    vec = pts[e[:, 1]] - pts[e[:, 0]]
+    order = np.lexsort((j, i))
+    return i[order].astype(np.int64), j[order].astype(np.int64), vec[order]
+
+
+def _from_bonds(i, j, vec, N: int) -> VoronoiNeighbors:
+    v3 = np.zeros((len(i), 3))
+    v3[:, :2] = vec
+    nl = freud.locality.NeighborList.from_arrays(N, N, i, j, v3)
+    return VoronoiNeighbors(i, j, vec, np.bincount(i, minlength=N).astype(np.int64), nl)
+
+
 def voronoi_neighbors(pos: np.ndarray, box, radii=None) -> VoronoiNeighbors:
     """Periodic Voronoi tessellation of the centroids ``pos`` (N, 2) in ``box`` (Lx, Ly);
-    with per-cell ``radii`` (N,) the radical (Laguerre) one (:func:`laguerre_bonds`)."""
+    with per-cell ``radii`` (N,) the radical (Laguerre) one (:func:`laguerre_bonds`).
+    Beyond ``FREUD_VORONOI_MAX`` cells from scipy's Delaunay triangulation
+    (:func:`delaunay_bonds`): freud 3.4's Voronoi fails there (a segmentation fault on a
+    near-lattice of 10^6 cells, ``bad_array_new_length`` on 7·10^5 random points)."""
+    if radii is None and len(pos) > FREUD_VORONOI_MAX:
+        return _from_bonds(*delaunay_bonds(pos, box), len(pos))
     if radii is not None:
-        i, j, vec = laguerre_bonds(pos, box, radii)
-        N = len(pos)
-        v3 = np.zeros((len(i), 3))
-        v3[:, :2] = vec
-        nl = freud.locality.NeighborList.from_arrays(N, N, i, j, v3)
-        return VoronoiNeighbors(i, j, vec, np.bincount(i, minlength=N).astype(np.int64), nl)
+        return _from_bonds(*laguerre_bonds(pos, box, radii), len(pos))
     system = freud_system(pos, box)
     vor = freud.locality.Voronoi()
     vor.compute(system)
