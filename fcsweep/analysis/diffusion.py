@@ -216,14 +216,11 @@ def _blocks_held(x: np.ndarray, h: float, B: int, tau_r: float, fit_start: float
     window MSD, so the block estimate is their mean; its error is ``sqrt(g var_i(D_i) / N)``
     with the spatial inefficiency ``g`` of the displacements over the top fit lag
     (:mod:`fcsweep.analysis.collective`): cells that move together count once."""
-    Lf = x.shape[0] // B
-    lo, hi, lags, late = _block_lags(Lf, fit_start)
-    if lags.size < 3 or late.size < 3:
+    plan = _block_plan(x.shape[0], h, B, tau_r, fit_start)
+    if plan is None:
         return None
-    t = np.arange(Lf) * h
+    Lf, lo, hi, lags, late, w_all, w_late = plan
     N = x.shape[1]
-    w_all = _slope_weights(lags, t, tau_r)
-    w_late = _slope_weights(late, t, tau_r)
     Db, Dl, var_b, var_l, gs = (np.empty(B) for _ in range(5))
     for b in range(B):
         xb = x[b * Lf:(b + 1) * Lf]
@@ -233,6 +230,26 @@ def _blocks_held(x: np.ndarray, h: float, B: int, tau_r: float, fit_start: float
             D_out[b] = Di.mean() - w @ mean_sq[ls]
             v_out[b] = Di.var(ddof=1) / N if N > 1 else np.nan
         gs[b] = spatial_inefficiency(disp)
+    return _block_result(Db, Dl, var_b, var_l, gs, lo, hi, Lf)
+
+
+def _block_plan(T: int, h: float, B: int, tau_r: float, fit_start: float):
+    """Frames per block, fitted lags (all and late) and their slope weights of ``B`` time
+    blocks of ``T`` frames (None when a block is too short for 3 lags)."""
+    Lf = T // B
+    hi = Lf // 2
+    lo = max(1, int(np.ceil(fit_start * hi)))
+    lags, late = np.arange(lo, hi + 1), np.arange(max(lo, hi // 2), hi + 1)
+    if lags.size < 3 or late.size < 3:
+        return None
+    t = np.arange(Lf) * h
+    return Lf, lo, hi, lags, late, _slope_weights(lags, t, tau_r), _slope_weights(late, t, tau_r)
+
+
+def _block_result(Db, Dl, var_b, var_l, gs, lo: int, hi: int, Lf: int):
+    """The block estimate's tuple (see :func:`_blocks_held`) from the per-block slopes,
+    their variances over cells and the spatial inefficiencies."""
+    B = len(Db)
     err_t = float(Db.std(ddof=1) / np.sqrt(B)) if B > 1 else float("nan")
     err_c = float(np.sqrt(np.sum(gs * var_b)) / B)
     errl_t = float(Dl.std(ddof=1) / np.sqrt(B)) if B > 1 else float("nan")
@@ -241,25 +258,16 @@ def _blocks_held(x: np.ndarray, h: float, B: int, tau_r: float, fit_start: float
             lo, hi, Lf, float(gs.mean()))
 
 
-def _block_lags(Lf: int, fit_start: float):
-    hi = Lf // 2
-    lo = max(1, int(np.ceil(fit_start * hi)))
-    return lo, hi, np.arange(lo, hi + 1), np.arange(max(lo, hi // 2), hi + 1)
-
-
 def _blocks_streamed(x: FrameSource, h: float, B: int, tau_r: float, fit_start: float):
     """:func:`_blocks_held` of a frame source: per time block, the drift of all cells from one
     pass over its frames, then the cells' slopes a block of cells at a time (each cell's
     window MSD is the one :func:`_blocks_held` computes; the window increments of
     the spatial inefficiency are ``(k <= 16, N)``)."""
-    Lf = x.shape[0] // B
-    lo, hi, lags, late = _block_lags(Lf, fit_start)
-    if lags.size < 3 or late.size < 3:
+    plan = _block_plan(x.shape[0], h, B, tau_r, fit_start)
+    if plan is None:
         return None
-    t = np.arange(Lf) * h
+    Lf, lo, hi, lags, late, w_all, w_late = plan
     N = x.shape[1]
-    w_all = _slope_weights(lags, t, tau_r)
-    w_late = _slope_weights(late, t, tau_r)
     m, k = inefficiency_windows(Lf)
     Db, Dl, var_b, var_l, gs = (np.empty(B) for _ in range(5))
     for b in range(B):
@@ -283,12 +291,7 @@ def _blocks_streamed(x: FrameSource, h: float, B: int, tau_r: float, fit_start: 
             D_out[b] = Di[key].mean() - w @ mean_sq[ls]
             v_out[b] = Di[key].var(ddof=1) / N if N > 1 else np.nan
         gs[b] = 1.0 if squares is None else inefficiency_of_squares(squares)
-    err_t = float(Db.std(ddof=1) / np.sqrt(B)) if B > 1 else float("nan")
-    err_c = float(np.sqrt(np.sum(gs * var_b)) / B)
-    errl_t = float(Dl.std(ddof=1) / np.sqrt(B)) if B > 1 else float("nan")
-    errl_c = float(np.sqrt(np.sum(gs * var_l)) / B)
-    return (float(Db.mean()), err_t, err_c, float(Dl.mean()), float(np.nanmax([errl_t, errl_c])),
-            lo, hi, Lf, float(gs.mean()))
+    return _block_result(Db, Dl, var_b, var_l, gs, lo, hi, Lf)
 
 
 def effective_diffusion(D_s: float, D_s_err: float, v0: float, Dr: float):
