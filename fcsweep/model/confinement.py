@@ -43,7 +43,7 @@ import numpy as np
 from .shape import a0_of, radius
 
 __all__ = ["BOUNDARIES", "WALL_CODES", "Confinement", "confinement_of", "boundary_problem", "wall_gap",
-           "wall_weights", "wall_rates", "wall_forces", "wall_pressure", "wall_overlap_area", "cell_contours"]
+           "wall_weights", "wall_rates", "wall_forces", "wall_pressure", "wall_overlap_area", "cell_contours", "confinement_of_params"]
 
 #: The boundaries (the ``boundary`` parameter).
 BOUNDARIES = ("periodic", "well", "channel")
@@ -404,3 +404,24 @@ def wall_overlap_area(pos, theta, a, b, conf: Confinement, *, R0=1.0, points: in
         s = np.minimum(s_up, s_dn)
     integrand = np.where(R > s, 0.5 * (R * R - np.minimum(s, R) ** 2), 0.0)
     return integrand.sum(axis=1) * (2.0 * np.pi / points)
+
+
+def confinement_of_params(params, radii=None) -> Confinement | None:
+    """:func:`confinement_of` for a run's parameters (a mapping of the parameter table;
+    missing keys take their defaults), ``None`` for a periodic run.
+
+    Parameters
+    ----------
+    params : mapping
+        Run parameters (``boundary``, ``boundary_size``, ``N``, ``density``, ``R0``,
+        ``adhesion``, ``adhesion_range``).
+    radii : array_like, shape (N,), optional
+        Per-cell radii when sizes differ (``particles/cells/R0`` of a trajectory).
+    """
+    boundary = str(params.get("boundary", "periodic"))
+    if boundary == "periodic":
+        return None
+    R0 = float(params.get("R0", 1.0))
+    reach = float(params.get("adhesion_range", 0.1)) * R0 if float(params.get("adhesion", 0.0)) > 0 else 0.0
+    return confinement_of(boundary, float(params.get("boundary_size", 0.0)), int(params["N"]),
+                          float(params.get("density", 0.95)), R0, radii, reach)
