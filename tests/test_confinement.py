@@ -244,3 +244,26 @@ def test_bad_confinement_is_refused_before_anything_runs(tmp_path, model, key, w
     assert key in str(err.value) and words in str(err.value)
     with pytest.raises(ValueError, match=words.split(":")[0].split(" =")[0]):
         Simulation.create(64, seed=1, eta=0.1, v0=0.02, **model)
+
+
+@pytest.mark.parametrize("boundary,extra", [("well", {"size_distribution": "bidisperse"}),
+                                            ("channel", {"adhesion": 0.05}),
+                                            ("well", {"modes": 0, "quadrature": "binary"})])
+def test_confinement_combines_with_the_other_extensions(boundary, extra):
+    """Unequal cells, adhesion and rigid discs run confined: the host box keeps the walls'
+    margin (four largest radii plus the adhesion range), every centre stays inside, and the
+    wall term of the kernels equals the reference's for the run's radii."""
+    sim = Simulation.create(16, seed=3, eta=0.1, v0=0.05, Dr=0.1, density=0.8, boundary=boundary,
+                            initial="disordered", **extra)
+    sim.advance(400)
+    s, conf, p = sim.state, sim.confinement, sim.params
+    assert (wall_gap(s.pos, conf) < 0).all()
+    r_max = 1.0 if sim.radii is None else sim.radii.max()
+    reach = 0.1 if p.adhesion > 0 else 0.0
+    margin = 0.5 * (conf.host[1] - conf.size) if boundary == "channel" else 0.5 * conf.host[0] - conf.size
+    assert margin == pytest.approx(4.0 * r_max + reach)
+    kw = dict(eta=p.eta, v0=p.v0, quadrature=p.quadrature, radii=sim.radii, contour_points=p.contour_points)
+    on = kernel_rates(s.pos, s.theta, s.a, s.b, wall=conf, **kw)
+    off = kernel_rates(s.pos, s.theta, s.a, s.b, box=conf.host, **kw)
+    ref = wall_rates(s.pos, s.theta, s.a, s.b, conf, quadrature=p.quadrature, radii=sim.radii)
+    np.testing.assert_allclose(on["dpos"] - off["dpos"], ref["dpos"], rtol=0, atol=1e-12)

@@ -67,8 +67,12 @@ def kernel_rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, contour_points=
     ``core_exponent`` p != 1 (the energy sum_ij A_ij^p) needs the arc rule or
     ``modes = 0`` and the Euler rates (ValueError otherwise).  ``radii`` (N,) are
     per-cell radii R0,i (cell size differences; Euler rates only); with a given
-    ``workspace`` they are those it was made with.
+    ``workspace`` they are those it was made with.  ``wall`` (a
+    :class:`fcsweep.model.confinement.Confinement`) adds the wall's rates; ``box`` is then
+    its host box (``wall.host`` when ``box`` is None).
     """
+    if wall is not None and box is None:
+        box = wall.host
     if radii is not None and (contact > 0.0 or sweeps > 0):
         raise ValueError("per-cell radii need the euler integrator (contact = sweeps = 0)")
     if core_exponent != 1.0 and (quadrature != "arc" or contact > 0.0 or sweeps > 0):
