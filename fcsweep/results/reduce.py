@@ -17,7 +17,7 @@ from fcsweep.analysis.fss import FSS_BOOTSTRAP, fss_collapse
 from fcsweep.analysis.percolation import fisher_observables
 from fcsweep.analysis.phase import (KTHNY_FLAGS, KTHNY_UNDETERMINED, MIN_CONFIDENCE, PERCOLATION_FLAGS, PHASE_FLAGS,
                                     RHO_D_PERCOLATION, flag_attrs)
-from fcsweep.analysis.points import COMBINED, DECIDED, HYSTERESIS_FLAGS, LEAST, agree, common_reason, point_labels
+from fcsweep.analysis.points import COMBINED, DECIDED, HYSTERESIS_FLAGS, LEAST, MOST, agree, common_reason, point_labels
 from fcsweep.analysis.reasons import reason_flags, reason_value
 from fcsweep.analysis.stats import combine
 from fcsweep.io.schema import DONE, STATUSES
@@ -31,7 +31,7 @@ META = {**{name: (p.long_name, p.units) for name, p in PARAMETERS.items()},
 #: Observables reduced over replicates (``<name>_rmean``, ``_rmean_err``, ``_rchi2``).
 REPLICATE_VARS = REPLICATE_REDUCED
 #: Per-run numbers the point labels read (:func:`fcsweep.analysis.points.combine_runs`).
-POINT_INPUTS = COMBINED + tuple(f"{v}_err" for v in COMBINED) + LEAST + ("cage_lag",)
+POINT_INPUTS = COMBINED + tuple(f"{v}_err" for v in COMBINED) + LEAST + MOST + ("cage_lag",)
 #: The flags of each label of the observable table (:data:`fcsweep.model.observables.LABELS`).
 LABEL_FLAGS = {"phase": PHASE_FLAGS, "percolated": PERCOLATION_FLAGS, "kthny": KTHNY_FLAGS}
 
