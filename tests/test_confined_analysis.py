@@ -210,3 +210,95 @@ def test_a_bounded_msd_decides_nothing_without_the_cage_rule():
                                             "cage_msd_ratio_err": 0.001}))
     assert with_cage.code == PHASE_SOLID  # the cage rule decides
     assert combine_runs([sc, {**sc, "msd_bounded": np.nan}])["msd_bounded"] == 1.0
+
+
+# ------------------------------------------------------------------ results: FSS, h5md, figures, export
+
+def test_fss_is_not_applicable_to_confined_runs():
+    import xarray as xr
+
+    from fcsweep.analysis.fss import NOT_PERIODIC
+    from fcsweep.analysis.reasons import REASON_BY_NAME
+    from fcsweep.results.reduce import FSS_VARS, _collapse_per_slice
+
+    dims = ("eta", "N", "v0")
+    ds = xr.Dataset(coords={"eta": [0.01, 0.02, 0.03], "N": [64, 256], "v0": [0.1], "replicate": [0]})
+    rng = np.random.default_rng(1)
+    for v in ("rho_d_rmean", "largest_cluster_fraction_rmean", "largest_cluster_fraction_rmean_err"):
+        ds[v] = (dims, rng.uniform(0.1, 0.9, (3, 2, 1)))
+    ds["area_fraction"] = (dims + ("replicate",), np.full((3, 2, 1, 1), 0.85))
+    _collapse_per_slice(ds, "largest_cluster_fraction", FSS_VARS, 2)
+    assert str(ds["fss_reason"].values.ravel()[0]).startswith(NOT_PERIODIC + ":")
+    assert np.isnan(ds["fss_rho_c"].values).all()
+    assert NOT_PERIODIC in REASON_BY_NAME
+
+
+@pytest.mark.parametrize("boundary, expected", [("periodic", ["periodic", "periodic"]), ("well", ["none", "none"]),
+                                                ("channel", ["periodic", "none"])])
+def test_h5md_box_boundary(tmp_path, boundary, expected):
+    import h5py
+
+    from fcsweep.io.h5md import create_trajectory
+
+    path = tmp_path / "t.h5"
+    create_trajectory(path, n_cells=4, box=(10.0, 10.0), modes_width=0, fields=["position"],
+                      parameters={"boundary": boundary, "N": 4}, dt=0.005)
+    with h5py.File(path, "r") as f:
+        got = [v.decode() if isinstance(v, bytes) else v for v in f["particles/cells/box"].attrs["boundary"]]
+    assert got == expected
+
+
+def test_no_copy_across_a_wall_in_figures_and_vtk():
+    from fcsweep.results.figures.frames import cell_polygons
+    from fcsweep.results.vtk import periodic_copies
+
+    box = np.array([10.0, 10.0])
+    pos = np.array([[0.5, 0.5]])  # crosses both edges
+    polys, owner = cell_polygons(pos, np.zeros(1), None, None, box)
+    assert len(polys) == 4
+    assert len(cell_polygons(pos, np.zeros(1), None, None, box, periodic=(False, False))[0]) == 1
+    assert len(cell_polygons(pos, np.zeros(1), None, None, box, periodic=(True, False))[0]) == 2
+    phi = np.linspace(0, 2 * np.pi, 20, endpoint=False)
+    contour = (pos[0] + np.stack([np.cos(phi), np.sin(phi)], -1))[None]
+    assert periodic_copies(contour, box)[0].shape[0] == 4
+    assert periodic_copies(contour, box, (True, False))[0].shape[0] == 2
+    assert periodic_copies(contour, box, (False, False))[0].shape[0] == 1
+
+
+def test_the_snapshot_draws_the_wall():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import Circle
+
+    from fcsweep.results.figures.frames import snapshot
+
+    conf0 = _well_of(10, 12.0)
+    p = _hex_patch(conf0, 2.0)
+    conf = _well_of(len(p), 12.0)
+    N = len(p)
+    fig = snapshot(p, np.zeros(N), None, None, conf.host, np.full(N, 3.6), np.zeros(N, bool), conf=conf)
+    circles = [a for a in fig.axes[0].patches if isinstance(a, Circle)]
+    assert len(circles) == 1 and circles[0].radius == pytest.approx(conf.size)
+    plt.close(fig)
+    ch, q = _channel_lattice(8, 6, 2.0)
+    fig = snapshot(q, np.zeros(len(q)), None, None, ch.host, np.full(len(q), 3.6), np.zeros(len(q), bool), conf=ch)
+    ys = sorted(line.get_ydata()[0] for line in fig.axes[0].lines if len(line.get_ydata()) == 2)
+    assert ys == pytest.approx([ch.y_lo, ch.y_hi])
+    plt.close(fig)
+
+
+def test_exported_defects_of_a_confined_frame_are_the_counted_ones():
+    from types import SimpleNamespace
+
+    from fcsweep.results.cells import _frame_of
+
+    conf0 = _well_of(100, 20.0)
+    p = _hex_patch(conf0, 2.0)
+    conf = _well_of(len(p), 20.0)
+    N = len(p)
+    traj = SimpleNamespace(box=conf.host, step=np.array([0]), time=np.array([0.0]))
+    cf = _frame_of(traj, 0, p, np.zeros((N, 2), np.int64), np.zeros(N), np.zeros((N, 0)), np.zeros((N, 0)), True,
+                   None, conf)
+    assert not cf.defect.any() and (cf.n_sides != 6).any()  # the rim is not counted
