@@ -208,6 +208,8 @@ class CellFrame:
 def run_confinement_of(traj: Trajectory):
     """The well or channel of a trajectory (its parameters and radii; host-box lengths), or
     None for the periodic box."""
+    if str(traj.params.get("boundary", "periodic")) == "periodic":
+        return None
     return confinement_of_params({**dict(traj.params), "N": traj.n_cells}, getattr(traj, "radii", None))
 
 

@@ -208,8 +208,10 @@ def _confinement(traj):
     from fcsweep.analysis.confined import scaled_confinement
     from fcsweep.model.confinement import confinement_of_params
 
+    if str(traj.params.get("boundary", "periodic")) == "periodic":
+        return None
     conf = confinement_of_params({**dict(traj.params), "N": traj.n_cells}, getattr(traj, "radii", None))
-    return None if conf is None else scaled_confinement(conf, float(traj.params.get("R0", 1.0)))
+    return scaled_confinement(conf, float(traj.params.get("R0", 1.0)))
 
 
 def _defects(pos, box, radii, conf):
@@ -248,8 +250,10 @@ def _frame(traj, k, conf=None):
 
 
 def _frame_title(traj, k, rho) -> str:
-    """Two lines: the run and its parameters, then the time and the defect fraction (model units)."""
+    """Two lines: the run and its parameters, then the time and the defect fraction (model
+    units); ``rho``: the defect fraction, or the defect flags of every cell."""
     p = traj.params
+    rho = float(np.mean(rho)) if np.ndim(rho) else float(rho)
 
     def num(name):
         v = p.get(name, "?")
