@@ -27,6 +27,7 @@ from .kernels.step import LIST_FULL, NONFINITE, OK, run_chunk
 from .kernels.api import param_vector
 from .kernels.workspace import quadrature_code, workspace_for
 from .model.integrators import DEFAULT_INTEGRATOR, INTEGRATORS, contact_parameters, integrator_problem
+from .model.confinement import boundary_problem, confinement_of
 from .model.disordered import random_centres, soft_disc_relax, start_rng
 from .model.lattice import hexagonal_lattice, lattice_box
 from .model.parameters import DEFAULTS, INITIAL_STATES, PARAMETERS, SIGNS, core_exponent_problem
@@ -84,6 +85,8 @@ class SimParams:
     size_ratio: float = DEFAULTS["size_ratio"]
     size_fraction: float = DEFAULTS["size_fraction"]
     size_width: float = DEFAULTS["size_width"]
+    boundary: str = DEFAULTS["boundary"]
+    boundary_size: float = DEFAULTS["boundary_size"]
 
     def __post_init__(self):
         for name, p in PARAMETERS.items():
@@ -114,6 +117,10 @@ class SimParams:
                                self.adhesion)
         if problem:
             raise ValueError(problem)
+        problem = boundary_problem(self.boundary, self.boundary_size, self.N, self.density, self.R0,
+                                   self.radius_range[1], self.initial, self.integrator)
+        if problem:
+            raise ValueError(problem)
         for name in (n for n, p in PARAMETERS.items() if p.type is float):
             if not math.isfinite(getattr(self, name)):
                 raise ValueError(f"{name} must be finite; got {getattr(self, name)!r}")
@@ -135,9 +142,19 @@ class SimParams:
         return radius_bounds(self.size_distribution, self.size_ratio, self.size_fraction, self.size_width, self.R0)
 
     @property
+    def confinement(self):
+        """The well or channel (:class:`fcsweep.model.confinement.Confinement`), ``None``
+        for the periodic box."""
+        reach = self.adhesion_range * self.R0 if self.adhesion > 0.0 else 0.0
+        return confinement_of(self.boundary, self.boundary_size, self.N, self.density, self.R0, self.radii, reach)
+
+    @property
     def box(self) -> np.ndarray:
         """Periodic box (Lx, Ly) of the n x n lattice at this density (with sizes: at
-        area fraction sum pi R0,i^2 / (Lx Ly), :func:`fcsweep.model.sizes.effective_radius`)."""
+        area fraction sum pi R0,i^2 / (Lx Ly), :func:`fcsweep.model.sizes.effective_radius`);
+        in a well or a channel the host box of :attr:`confinement`."""
+        if self.boundary != "periodic":
+            return self.confinement.host.copy()
         R = self.R0 if self.size_distribution == "monodisperse" else effective_radius(self.radii, self.R0)
         _, Lx, Ly = lattice_box(self.N, self.density, R)
         return np.array([Lx, Ly])
@@ -198,6 +215,8 @@ class Simulation:
         M1 = max(params.modes - 1, 0)
         #: Per-cell radii R0,i (``None`` for monodisperse cells: the kernels then read R0).
         self.radii = params.radii
+        #: The well or channel (``None``: the periodic box).
+        self.confinement = params.confinement
         self._ws = workspace_for(params.N, params.contour_points, M1, params.box, params.R0, params.quadrature,
                                  params.integrator, radii=self.radii)
         self._periodic = True
@@ -209,7 +228,7 @@ class Simulation:
             box=params.box, R0=params.R0, eta=params.eta, v0=params.v0, mu_theta=params.mu_theta,
             mu_shape=params.mu_shape, dt=params.dt, noise_amp=math.sqrt(2.0 * params.Dr * params.dt),
             smax=PROJECTION_MARGIN * ADMISSIBLE_BOUND, dmax=spacing, adhesion=params.adhesion,
-            adhesion_range=params.adhesion_range,
+            adhesion_range=params.adhesion_range, wall=self.confinement,
             **contact_parameters(params.integrator, params.dt, params.modes, params.R0, params.mu_shape),
             **({} if params.core_exponent == 1.0 else {"core_exponent": params.core_exponent}),
         )
@@ -270,7 +289,8 @@ class Simulation:
     def from_disordered(cls, N, *, seed, relax_time: float = RELAX_TIME, **params) -> "Simulation":
         """An isotropic start: random centres in the lattice's box, relaxed at v0 = 0.
 
-        Centres are uniform in the box, then pushed apart as soft discs
+        Centres are uniform in the box (in a well or channel: inside it, R0 from the walls),
+        then pushed apart as soft discs
         (:func:`fcsweep.model.disordered.soft_disc_relax`), then the model itself runs
         ``relax_time`` at v0 = 0 without noise and with the polarities held
         (``Dr = mu_theta = 0``) under the run's dt, quadrature and integrator, so that
@@ -293,7 +313,9 @@ class Simulation:
         p = dataclasses.replace(cls._params(N, seed, params, "from_disordered"), initial="disordered")
         box = p.box
         srng = start_rng(p.seed)
-        pos, _ = soft_disc_relax(random_centres(p.N, box, srng), box, p.R0, radii=p.radii)
+        conf = p.confinement
+        centres = random_centres(p.N, box, srng) if conf is None else conf.random_points(p.N, srng, inset=p.R0)
+        pos, _ = soft_disc_relax(centres, box, p.R0, radii=p.radii, confinement=conf)
         rng = np.random.Generator(np.random.PCG64(p.seed))
         theta = rng.uniform(0.0, 2.0 * np.pi, p.N)
         M1 = max(p.modes - 1, 0)
@@ -391,7 +413,8 @@ class Simulation:
         return kernel_rates(s.pos, s.theta, s.a, s.b, eta=p.eta, v0=p.v0, box=p.box, R0=p.R0,
                             contour_points=p.contour_points, quadrature=p.quadrature,
                             mu_theta=p.mu_theta, mu_shape=p.mu_shape, adhesion=p.adhesion,
-                            adhesion_range=p.adhesion_range, core_exponent=p.core_exponent, radii=self.radii)
+                            adhesion_range=p.adhesion_range, core_exponent=p.core_exponent, radii=self.radii,
+                            wall=self.confinement)
 
     # ------------------------------------------------------------------ persistence
     def to_checkpoint(self) -> dict:

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Mapping
 
 from fcsweep.config.errors import ConfigError, _Problems, _is_int, _show
+from fcsweep.model.confinement import boundary_problem
 from fcsweep.model.integrators import DEFAULT_INTEGRATOR, integrator_problem
 from fcsweep.model.parameters import core_exponent_problem
 from fcsweep.model.shape import contour_points_problem, dt_problem
@@ -55,6 +56,8 @@ def check_runnable(cfg: "SweepConfig") -> None:
       dt limit uses the largest radius, the step bound the smallest (:func:`fcsweep.model.sizes.radius_bounds`);
     - a core exponent != 1 has the arc rule (or rigid discs) and Euler
       (:func:`fcsweep.model.parameters.core_exponent_problem`);
+    - a well or channel starts disordered under Euler and holds its cells
+      (:func:`fcsweep.model.confinement.boundary_problem`);
     - step length and rotational step (:func:`check_step_sizes`);
     - the largest run fits in this machine's memory (:func:`check_memory`).
 
@@ -95,6 +98,14 @@ def check_runnable(cfg: "SweepConfig") -> None:
         problem = size_problem(distribution, initial, integrator, width, adhesion)
         if problem:
             problems.add(ConfigError(f"{where('size_distribution')}: {problem}"))
+            break
+    for boundary, size, N, density, R0, initial, integrator, *sizes in _grid_or_model(
+            cfg, ("boundary", "boundary_size", "N", "density", "R0", "initial", "integrator") + SIZE_NAMES):
+        problem = boundary_problem(boundary, size, N, density, R0, radius_bounds(*sizes, R0=R0)[1], initial,
+                                   integrator)
+        if problem:
+            problems.add(ConfigError(f"{where('boundary_size' if 'boundary_size' in problem else 'boundary')}: "
+                                     f"{problem}"))
             break
     if set(grid.get("modes", (model.get("modes"),))) == {0}:
         for name in ("quadrature", "contour_points"):

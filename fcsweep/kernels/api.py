@@ -6,14 +6,14 @@ import numpy as np
 
 from ..model.integrators import JACOBI_MAX_FACTOR, KAPPA_FLOOR
 from .records import (N_PARAMS, P_ADH, P_ADHR, P_CONTACT, P_CORE, P_DMAX, P_DT, P_ETA, P_KFLOOR, P_LAMMAX, P_LX,
-                      P_LY, P_MUS, P_MUT, P_NOISE, P_R0, P_SKIN, P_SMAX, P_SWEEPS, P_V0)
+                      P_LY, P_MUS, P_MUT, P_NOISE, P_R0, P_SKIN, P_SMAX, P_SWEEPS, P_V0, P_WALL, P_WALLA)
 from .step import compute_rates
 from .workspace import SKIN, quadrature_code, workspace_for
 
 
 def param_vector(*, box, R0, eta, v0, mu_theta, mu_shape, dt=0.0, noise_amp=0.0, smax=np.inf, dmax=np.inf,
                  contact=0.0, sweeps=0, kappa_floor=KAPPA_FLOOR, adhesion=0.0, adhesion_range=0.1,
-                 core_exponent=1.0):
+                 core_exponent=1.0, wall=None):
     """Float parameter vector in the layout :func:`fcsweep.kernels.step.run_chunk` reads.
 
     ``contact``, ``sweeps`` and ``kappa_floor`` are an integrator's contact settings
@@ -21,6 +21,8 @@ def param_vector(*, box, R0, eta, v0, mu_theta, mu_shape, dt=0.0, noise_amp=0.0,
     ``core_exponent`` the power of the overlap area in the energy (1: the paper's).
     ``adhesion`` and ``adhesion_range`` (in R0) are :mod:`fcsweep.model.adhesion`'s gamma and
     delta / R0; with ``adhesion = 0`` the vector holds zeros for both and the step is today's.
+    ``wall`` is a :class:`fcsweep.model.confinement.Confinement` (``None``: the periodic box,
+    no wall term); ``box`` is then its host box.
     """
     prm = np.zeros(N_PARAMS)
     Lx, Ly = (1.0, 1.0) if box is None else (float(box[0]), float(box[1]))
@@ -36,6 +38,9 @@ def param_vector(*, box, R0, eta, v0, mu_theta, mu_shape, dt=0.0, noise_amp=0.0,
         prm[P_ADH] = adhesion
         prm[P_ADHR] = adhesion_range * R0
     prm[P_CORE] = core_exponent
+    if wall is not None:
+        prm[P_WALL] = wall.code
+        prm[P_WALLA:P_WALLA + 3] = wall.kernel_values()
     return prm
 
 
@@ -51,7 +56,7 @@ def wrap_positions(pos, box):
 
 def kernel_rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, contour_points=40, quadrature="arc",
                  mu_theta=1.0, mu_shape=1.0, workspace=None, contact=0.0, sweeps=0, kappa_floor=KAPPA_FLOOR,
-                 dt=0.0, adhesion=0.0, adhesion_range=0.1, core_exponent=1.0, radii=None):
+                 dt=0.0, adhesion=0.0, adhesion_range=0.1, core_exponent=1.0, radii=None, wall=None):
     """Deterministic rates computed by the numba kernels; same contract as
     :func:`fcsweep.model.rates.rates`.
 
@@ -82,7 +87,7 @@ def kernel_rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, contour_points=
         raise ValueError("contact-jacobi needs a Workspace with pair_records=True")
     prm = param_vector(box=box, R0=R0, eta=eta, v0=v0, mu_theta=mu_theta, mu_shape=mu_shape, contact=contact,
                        sweeps=sweeps, kappa_floor=kappa_floor, dt=dt, adhesion=adhesion,
-                       adhesion_range=adhesion_range, core_exponent=core_exponent)
+                       adhesion_range=adhesion_range, core_exponent=core_exponent, wall=wall)
     pos = wrap_positions(pos, box)
     ws.nl[4][0] = 0  # positions are new: rebuild the neighbour list
     while not compute_rates(pos, theta, a, b, prm, box is not None, quadrature_code(quadrature),

@@ -32,7 +32,9 @@ Rates = namedtuple("Rates", "dpos dth da db")
 
 #: Indices into the float parameter vector (:func:`fcsweep.kernels.api.param_vector`).
 #: ``P_ADH``: adhesion strength gamma (0: off); ``P_ADHR``: its range delta in length units
-#: (0 when adhesion is off, so that the neighbour lists are today's).
+#: (0 when adhesion is off, so that the neighbour lists are today's).  ``P_WALL``: the wall code
+#: (0: periodic box, no wall; :data:`fcsweep.model.confinement.WALL_CODES`) and its geometry
+#: ``P_WALLA..C``: well (cx, cy, R_w), channel (y_lo, y_hi, 0).
 (P_LX, P_LY, P_R0, P_ETA, P_V0, P_MUT, P_MUS, P_DT, P_NOISE, P_SMAX, P_DMAX, P_SKIN, P_CONTACT, P_KFLOOR, P_SWEEPS,
- P_LAMMAX, P_ADH, P_ADHR, P_CORE) = range(19)
-N_PARAMS = 19
+ P_LAMMAX, P_ADH, P_ADHR, P_CORE, P_WALL, P_WALLA, P_WALLB, P_WALLC) = range(23)
+N_PARAMS = 23

@@ -24,8 +24,9 @@ from .geometry import geometry
 from .options import NJIT
 from .pairs import QUAD_ARC
 from .rates import all_rates, contact_sweeps
-from .records import P_ADH, P_ADHR, P_DMAX, P_DT, P_LX, P_LY, P_NOISE, P_R0, P_SKIN, P_SMAX, P_SWEEPS
+from .records import P_ADH, P_ADHR, P_DMAX, P_DT, P_LX, P_LY, P_NOISE, P_R0, P_SKIN, P_SMAX, P_SWEEPS, P_WALL
 from .verlet import build_back, build_verlet, needs_rebuild
+from .walls import wall_rates
 
 #: Status codes returned by :func:`run_chunk`.
 OK = 0
@@ -135,6 +136,8 @@ def compute_rates(pos, theta, a, b, prm, periodic, quad, tables, scratch, cl, nl
     all_rates(pos, a, b, prm, periodic, quad, tables, scratch, nl, out, use_list, jacobi)
     if prm[P_ADH] > 0.0:
         adhesion_rates(pos, a, b, prm, periodic, tables, scratch, nl, out, use_list)
+    if prm[P_WALL] > 0.0:
+        wall_rates(pos, a, b, prm, quad, tables, scratch, out)
     if jacobi:
         contact_sweeps(a, b, prm, scratch, nl, out, sweeps)
     return True

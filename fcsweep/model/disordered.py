@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .confinement import wall_gap
+
 __all__ = ["DISORDERED_STREAM", "SOFT_DISC_STEP", "SOFT_DISC_ITERATIONS", "SOFT_DISC_DEPTH",
            "start_rng", "random_centres", "soft_disc_pairs", "soft_disc_relax"]
 
@@ -98,7 +100,8 @@ def soft_disc_pairs(pos: np.ndarray, box, cutoff: float):
 
 
 def soft_disc_relax(pos, box, R0: float = 1.0, *, step: float = SOFT_DISC_STEP,
-                    iterations: int = SOFT_DISC_ITERATIONS, depth: float = SOFT_DISC_DEPTH, radii=None):
+                    iterations: int = SOFT_DISC_ITERATIONS, depth: float = SOFT_DISC_DEPTH, radii=None,
+                    confinement=None):
     """Push discs of radius ``R0`` apart (harmonic repulsion ``(2 R0 - r)^2 / 2``, gradient
     descent) until no two overlap deeper than ``depth * R0``.
 
@@ -118,6 +121,10 @@ def soft_disc_relax(pos, box, R0: float = 1.0, *, step: float = SOFT_DISC_STEP,
         Deepest overlap (R0) at which the descent stops.
     radii : array_like, shape (N,), optional
         Per-disc radii (cell size differences): the repulsion is (R_i + R_j - r)^2 / 2.
+    confinement : fcsweep.model.confinement.Confinement, optional
+        Walls (``box`` is then its host box): a disc beyond a wall by h is pushed back with
+        the repulsion h^2 / 2, and the descent also stops only once no disc is beyond a
+        wall by more than ``depth * R0``.
 
     Returns
     -------
@@ -140,12 +147,18 @@ def soft_disc_relax(pos, box, R0: float = 1.0, *, step: float = SOFT_DISC_STEP,
             sigma = rad[i] + rad[j]
             touch = r < sigma
             i, j, d, r, sigma = i[touch], j[touch], d[touch], r[touch], sigma[touch]
-        if r.size == 0 or (r.min() >= sigma - depth * R0 if rad is None
-                           else (r - (sigma - depth * R0)).min() >= 0.0):
+        wall_h = None
+        if confinement is not None:
+            wall_h = np.maximum(wall_gap(pos, confinement) + (R0 if rad is None else rad), 0.0)
+        pairs_done = r.size == 0 or (r.min() >= sigma - depth * R0 if rad is None
+                                     else (r - (sigma - depth * R0)).min() >= 0.0)
+        if pairs_done and (wall_h is None or wall_h.max() <= depth * R0):
             break
         # coincident centres (probability zero) get no force this iteration
         push = np.where(r > 0, (sigma - r) / np.where(r > 0, r, 1.0), 0.0)[:, None] * d
         force = np.stack([np.bincount(j, push[:, k], N) - np.bincount(i, push[:, k], N) for k in (0, 1)], axis=1)
+        if wall_h is not None:
+            force -= wall_h[:, None] * confinement.outward_normal(pos)
         pos = (pos + step * R0 * force) % box
         done += 1
     return pos, done

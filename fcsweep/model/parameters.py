@@ -20,6 +20,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from fcsweep.model.confinement import BOUNDARIES
 from fcsweep.model.integrators import DEFAULT_INTEGRATOR, INTEGRATORS
 from fcsweep.model.rates import QUADRATURES
 from fcsweep.model.sizes import SIZE_DISTRIBUTIONS
@@ -203,6 +204,20 @@ PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
               "lognormal, gaussian: relative width of the radii (std / mean)", "relative width of the radii",
               "0 … 0.3 (only with `size_distribution: lognormal` or `gaussian`). Part of the run id only when "
               "not 0.1", range=(0.0, 0.3), sign=">= 0", id_omits_default=True),
+    Parameter("boundary", str, "periodic", "boundary of the cells' domain",
+              "boundary: periodic box (default), circular well, or channel (periodic along x, walls in y)",
+              "boundary of the domain",
+              "`periodic` (the box), `well` (a circular wall), `channel` (walls at two y, periodic along x); the "
+              "wall's energy is the area of a cell beyond it, as another cell's overlap (docs/model.md, "
+              "Confinement); needs `initial: disordered` and `integrator: euler`. Part of the run id only when not "
+              "`periodic`", choices=BOUNDARIES, unit="", id_omits_default=True),
+    Parameter("boundary_size", float, 0.0, "well radius or channel width (R0; 0: from N and density)",
+              "well radius or channel width in R0 (0: from N and density)",
+              "the well's radius R_w or the channel's width W",
+              "0 … 10⁴ (0: the well's radius or the channel's width follows from N and `density`; a well of given "
+              "radius holds its N cells at area fraction N R0²/R_w², and `density` is not used). Only with "
+              "`boundary` `well` or `channel`; part of the run id only when not 0", range=(0.0, 1e4), sign=">= 0",
+              unit="R0", id_omits_default=True),
 )}
 
 #: name -> default (``None``: must be given).
