@@ -302,3 +302,97 @@ def test_exported_defects_of_a_confined_frame_are_the_counted_ones():
     cf = _frame_of(traj, 0, p, np.zeros((N, 2), np.int64), np.zeros(N), np.zeros((N, 0)), np.zeros((N, 0)), True,
                    None, conf)
     assert not cf.defect.any() and (cf.n_sides != 6).any()  # the rim is not counted
+
+
+# ------------------------------------------------------------------ analyze + aggregate of a swept boundary
+
+SWEEP = """
+output: {out}
+seed: 1
+replicates: 1
+grid:
+  eta: [0.1]
+  v0: [0.03]
+  boundary: [periodic, well, channel]
+model: {{N: 36, density: 0.9, Dr: 1.0, dt: 0.005, modes: 6, initial: disordered}}
+run: {{steps: 3000, sample_every: 50, checkpoint_every: 500, transient: 0.2}}
+"""
+
+
+def _confined_positions(params, rng, T):
+    """Jittered lattice sites of a run (host-box coordinates) and its box."""
+    from fcsweep.model.confinement import confinement_of_params
+    from fcsweep.model.lattice import hexagonal_lattice
+
+    N = int(params["N"])
+    lattice, box = hexagonal_lattice(N, params["density"])
+    conf = confinement_of_params(params)
+    if conf is None:
+        base = lattice
+    elif conf.kind == "channel":
+        assert conf.host[0] == pytest.approx(box[0]) and conf.size == pytest.approx(box[1])
+        base = lattice + np.array([0.0, conf.y_lo + 0.5 * box[1] / math.sqrt(N)])  # 6 rows, half a row off
+        box = conf.host
+    else:
+        sites = _hex_patch(conf, 2.0 * C.lattice_spacing(conf, N) / 2.0, inset=0.0)
+        base = sites[np.argsort(np.linalg.norm(sites - conf.centre, axis=1))[:N]]
+        box = conf.host
+    x = base[None] + 0.01 * rng.standard_normal((T, N, 2))
+    return x, np.asarray(box, float)
+
+
+def _write_run(path, params, seed, T=61):
+    import h5py
+
+    rng = np.random.default_rng(seed)
+    N = int(params["N"])
+    x, box = _confined_positions(params, rng, T)
+    image = np.floor_divide(x, box).astype(np.int32)
+    steps = np.arange(T, dtype=np.int64) * 50
+    with h5py.File(path, "w") as f:
+        f.create_group("h5md").attrs["version"] = [1, 1]
+        cells = f.create_group("particles/cells")
+        cells.create_group("box").create_dataset("edges", data=box)
+        for name, val in (("position", x - image * box), ("image", image), ("theta", rng.uniform(0, 6.28, (T, N))),
+                          ("shape_a", np.zeros((T, N, 5))), ("shape_b", np.zeros((T, N, 5)))):
+            g = cells.create_group(name)
+            g.create_dataset("step", data=steps)
+            g.create_dataset("time", data=steps * params["dt"])
+            g.create_dataset("value", data=val)
+        par = f.create_group("parameters")
+        for k, v in params.items():
+            par.attrs[k] = v
+
+
+def test_aggregate_carries_the_boundary_and_the_wall_pressure(tmp_path):
+    import json
+
+    import xarray as xr
+
+    from fcsweep.config import parse_config
+    from fcsweep.results.aggregate import aggregate_sweep, build_dataset
+    from fcsweep.results.analyze import analyze_sweep
+
+    cfg = parse_config(SWEEP.format(out=tmp_path / "sweep"))
+    for k, spec in enumerate(cfg.runs()):
+        rd = tmp_path / "sweep" / "runs" / spec.run_id
+        rd.mkdir(parents=True)
+        _write_run(rd / "trajectory.h5", {**dict(spec.params), "run_id": spec.run_id}, k)
+        (rd / "status.json").write_text(json.dumps({"status": "done", "reason": ""}))
+    res = analyze_sweep(cfg)
+    assert [s for _, s, _ in res] == ["done"] * 3, res
+    ds = build_dataset(cfg)
+    assert sorted(ds["boundary"].values.tolist()) == ["channel", "periodic", "well"]
+    assert ds["boundary"].attrs["long_name"]
+    sel = {b: ds.sel(boundary=b).squeeze() for b in ("periodic", "well", "channel")}
+    assert np.isnan(sel["periodic"]["wall_pressure"]) and np.isnan(sel["periodic"]["area_fraction"])
+    assert sel["periodic"]["msd_bounded"] == 0 and sel["periodic"]["n_counted_cells"] == 36
+    for b in ("well", "channel"):
+        assert np.isfinite(sel[b]["wall_pressure"]) and np.isfinite(sel[b]["wall_pressure_err"])
+        assert sel[b]["area_fraction"] == pytest.approx(0.9)
+        assert sel[b]["msd_bounded"] == 1 and 0 < sel[b]["n_counted_cells"] < 36
+        assert int(sel[b]["kthny_reason_code"]) == reason_value("not_periodic")
+    aggregate_sweep(cfg)  # the string coordinate writes and reads back
+    with xr.open_dataset(tmp_path / "sweep" / "phase_diagram.nc") as back:
+        assert sorted(back["boundary"].values.tolist()) == ["channel", "periodic", "well"]
+        assert np.isfinite(back["wall_pressure"].sel(boundary="well")).all()
