@@ -10,8 +10,11 @@ that the machine's load drifts over both alike.  Per quadrature (binary, arc) at
 it reports cell-steps/s as the median over ``--blocks`` blocks (>= 5), the ratio
 this / main, and whether both trees give the same state to the bit after the same steps
 (extensions off: they must).  Then this tree with each extension on against off:
-``size_distribution: bidisperse`` (disordered start, both rules) and ``core_exponent: 2``
-(arc rule only).  No file is written; the table goes to stdout.
+``size_distribution: bidisperse`` (disordered start, both rules), ``core_exponent: 2``
+(arc rule only) and ``boundary: well`` / ``channel`` (disordered start, both rules: the same
+confined packing stepped with the wall term and without it, so that the ratio is the wall
+term's cost and not a difference of packings).  ``--only`` picks some of them.  No file is
+written; the table goes to stdout.
 """
 
 from __future__ import annotations
@@ -46,6 +49,9 @@ def _worker() -> None:
                 sims[key] = Simulation.from_disordered(N, seed=seed, relax_time=req.get("relax", 1.0), **p)
             else:
                 sims[key] = Simulation.create(N, seed=seed, **p)
+            if req.get("wall_off"):  # the same confined packing without the wall term's work
+                from fcsweep.kernels.records import P_WALL
+                sims[key]._prm[P_WALL] = 0.0
             sims[key].advance(10)  # compile / warm
         sim = sims[key]
         clock = time.process_time if req.get("cpu") else time.perf_counter
@@ -84,7 +90,7 @@ def _compare(label, a: _Worker, ka, pa, b: _Worker, kb, pb, steps, blocks, same_
     ra, rb = [], []
     identical = True
     for _ in range(blocks):
-        x = a.ask(key=ka, params=pa, steps=steps)
+        x = a.ask(**ka, steps=steps) if isinstance(ka, dict) else a.ask(key=ka, params=pa, steps=steps)
         y = b.ask(key=kb, params=pb, steps=steps)
         ra.append(x["rate"])
         rb.append(y["rate"])
@@ -106,6 +112,7 @@ def main() -> None:
     ap.add_argument("--skip-extensions", action="store_true", help="only the A/B against main")
     ap.add_argument("--swap", action="store_true", help="ask this tree before main in each block (order check)")
     ap.add_argument("--quadratures", default="binary,arc", help="comma list (default binary,arc)")
+    ap.add_argument("--only", default="sizes,core,boundary", help="extensions to time (default all: sizes,core,boundary)")
     ap.add_argument("--cpu", action="store_true",
                     help="time each block by the worker's CPU time (time.process_time: less sensitive to other "
                          "load on a shared machine) instead of wall time")
@@ -132,13 +139,19 @@ def main() -> None:
     if args.skip_extensions:
         ours.close()
         return
+    only = set(args.only.split(","))
     for q in quads:
         off = {**base, "quadrature": q, "initial": "disordered"}
-        on = {**off, "size_distribution": "bidisperse"}
-        _compare(f"this: sizes off / bidisperse, {q}", ours, f"d{q}", off, ours, f"s{q}", on, args.steps, blocks,
-                 False)
+        if "sizes" in only:
+            _compare(f"this: sizes off / bidisperse, {q}", ours, f"d{q}", off, ours, f"s{q}",
+                     {**off, "size_distribution": "bidisperse"}, args.steps, blocks, False)
+        for boundary in ("well", "channel") if "boundary" in only else ():
+            conf = {**off, "boundary": boundary}
+            a_req = dict(key=f"{boundary}{q}-off", params=conf, wall_off=True)
+            _compare(f"this: {boundary} wall term off / on, {q}", ours, a_req, None, ours, f"{boundary}{q}", conf,
+                     args.steps, blocks, False)
     off = {**base, "quadrature": "arc"}
-    if "arc" in quads:
+    if "arc" in quads and "core" in only:
         _compare("this: core_exponent 1 / 2, arc", ours, "arc", off, ours, "core", {**off, "core_exponent": 2.0},
                  args.steps, blocks, False)
     ours.close()
