@@ -32,6 +32,7 @@ it first falls below ``1/e`` (NaN when it does not within the window).
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -143,7 +144,7 @@ def _lag_frames(T: int, n: int = 16) -> np.ndarray:
 
 
 def cage_breaking(time, unwrapped, box, *, spacing: float | None = None,
-                  n_origins: int = N_ORIGINS, neighbours=None) -> CageBreaking:
+                  n_origins: int = N_ORIGINS, neighbours=None, cells=None) -> CageBreaking:
     """Cage-relative MSD against the neighbour spacing, and ``F_s`` (see module doc).
 
     Parameters
@@ -162,6 +163,11 @@ def cage_breaking(time, unwrapped, box, *, spacing: float | None = None,
     neighbours : callable, optional
         ``neighbours(pos) -> (i, j)``, the bonds of the cells at a time origin; default
         the periodic Voronoi of ``box`` (an image passes its open-boundary graph).
+    cells : callable, optional
+        ``cells(pos) -> bool (N,)``: the cells a time origin counts (a confined run: those
+        at least 2a from the walls, :mod:`fcsweep.analysis.confined`); the mean squares,
+        ``F_s``, the block errors and ``<1/n>`` are over them (all cells by default).
+        Their neighbours' displacements still enter every counted cell's cage.
 
     Returns
     -------
@@ -182,11 +188,16 @@ def cage_breaking(time, unwrapped, box, *, spacing: float | None = None,
     side = np.floor(np.mod(x[0], L) / L * BLOCKS_PER_SIDE).astype(int) % BLOCKS_PER_SIDE
     block = side[:, 0] * BLOCKS_PER_SIDE + side[:, 1]
     shells = {}
-    msd, fs, per_cell, inv_n = _cage_curves(x, lags, L, k, n_origins, shells, neighbours)
-    labels = np.unique(block)
+    msd, fs, per_cell, inv_n = _cage_curves(x, lags, L, k, n_origins, shells, neighbours, cells)
+    if not np.isfinite(msd).all():  # no cell counted at some origin
+        e = np.zeros(0)
+        return CageBreaking(a, nan, nan, nan, nan, nan, nan, e, e, e)
+    labels = np.unique(block if cells is None else block[np.asarray(cells(x[0]), bool)])
 
     def by_block(pc):
-        return np.stack([pc[:, block == b].mean(axis=1) for b in labels], axis=1) / a ** 2
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # a block without counted cells at some lag
+            return np.stack([np.nanmean(pc[:, block == b], axis=1) for b in labels], axis=1) / a ** 2
 
     blocks = by_block(per_cell)
     ratios = msd / a ** 2
@@ -204,7 +215,7 @@ def cage_breaking(time, unwrapped, box, *, spacing: float | None = None,
         def add(more):  # the curves at more lags (frames), merged in lag order
             more = np.setdiff1d(np.unique(np.round(more).astype(int)), curves[0])
             if more.size:
-                m2, f2, p2, _ = _cage_curves(x, more, L, k, n_origins, shells, neighbours)
+                m2, f2, p2, _ = _cage_curves(x, more, L, k, n_origins, shells, neighbours, cells)
                 order = np.argsort(np.concatenate([curves[0], more]))
                 for q, new in enumerate((more, m2, f2, by_block(p2))):
                     curves[q] = np.concatenate([curves[q], new])[order]
@@ -241,13 +252,16 @@ def cage_breaking(time, unwrapped, box, *, spacing: float | None = None,
                         float(D_late), float(D_late_err), float(inv_n))
 
 
-def _cage_curves(x, lags, L, k, n_origins, shells, neighbours=None):
+def _cage_curves(x, lags, L, k, n_origins, shells, neighbours=None, cells=None):
     """Cage-relative MSD, ``F_s`` and per-cell mean squares at ``lags`` (frames), and
-    ``<1/n_i>`` over the cells and origins; ``shells`` caches the Voronoi shells by origin."""
+    ``<1/n_i>`` over the cells and origins; ``shells`` caches the Voronoi shells (and the
+    counted cells, ``cells``) by origin.  A cell never counted at a lag's origins has a
+    NaN mean square there."""
     T, N = x.shape[:2]
     msd = np.zeros(lags.size)
     fs = np.zeros(lags.size)
     per_cell = np.zeros((lags.size, N))
+    per_count = np.zeros((lags.size, N))
     for q, m in enumerate(lags):
         origins = np.unique(np.linspace(0, T - 1 - m, min(n_origins, T - m)).astype(int))
         for o in origins:
@@ -257,17 +271,23 @@ def _cage_curves(x, lags, L, k, n_origins, shells, neighbours=None):
                     bi, bj = vn.i, vn.j
                 else:
                     bi, bj = neighbours(x[o])
-                shells[o] = (bi, bj, np.maximum(np.bincount(bi, minlength=N), 1)[:, None])
-            i, j, deg = shells[o]
+                use = np.ones(N, bool) if cells is None else np.asarray(cells(x[o]), bool)
+                shells[o] = (bi, bj, np.maximum(np.bincount(bi, minlength=N), 1)[:, None], use)
+            i, j, deg, use = shells[o]
             d = x[o + m] - x[o]
             nb = np.zeros((N, 2))
             np.add.at(nb, i, d[j])
             rel = d - nb / deg
             s = np.sum(rel * rel, axis=1)
-            msd[q] += s.mean() / origins.size
-            fs[q] += j0(k * np.sqrt(s)).mean() / origins.size
-            per_cell[q] += s / origins.size
-    inv_n = float(np.mean([np.mean(1.0 / sh[2]) for sh in shells.values()])) if shells else float("nan")
+            su = s[use]
+            msd[q] += (su.mean() if su.size else np.nan) / origins.size
+            fs[q] += (j0(k * np.sqrt(su)).mean() if su.size else np.nan) / origins.size
+            per_cell[q] += np.where(use, s, 0.0)
+            per_count[q] += use
+    with np.errstate(invalid="ignore", divide="ignore"):
+        per_cell = np.where(per_count > 0, per_cell / np.maximum(per_count, 1), np.nan)
+    inv = [np.mean(1.0 / sh[2][sh[3], 0]) for sh in shells.values() if sh[3].any()]
+    inv_n = float(np.mean(inv)) if inv else float("nan")
     return msd, fs, per_cell, inv_n
 
 

@@ -57,6 +57,21 @@ FSS_TOLERANCE = 0.02
 MAX_WINDOW_ITERATIONS = 10
 #: Default number of bootstrap refits behind the errors of :func:`fss_collapse`.
 FSS_BOOTSTRAP = 100
+#: The reason code (:mod:`fcsweep.analysis.reasons`) that marks a collapse not applicable
+#: to confined runs; the collapse's reason text starts with it (:func:`not_periodic_reason`).
+NOT_PERIODIC = "not_periodic"
+
+
+def not_periodic_reason() -> str:
+    """Why no collapse is fitted to confined runs (a well or a channel), starting with
+    the reason code :data:`NOT_PERIODIC`.
+
+    The collapse scales with L = sqrt(N), the linear size of a periodic box of N cells
+    with no boundary; in a well or channel the counted cells lie away from the walls, a
+    boundary layer whose width does not scale with L cuts them off, and a channel's
+    largest cluster is bounded by its width, not by L."""
+    return (f"{NOT_PERIODIC}: finite-size scaling with L = sqrt(N) does not apply to confined runs (a well or "
+            "channel: walls, not periodic images, bound the clusters)")
 
 
 @dataclass(frozen=True)

@@ -287,9 +287,14 @@ def phase_evidence(sc: dict, note: str | None = None) -> PhaseEvidence:
     D, De = solid_test_estimate(sc)
     long_enough = _flag(sc, "msd_long_enough")
     has_cr = np.isfinite(sc.get("D_eff_cr", np.nan)) and np.isfinite(sc.get("D_eff_cr_err", np.nan))
-    trusted = long_enough and (has_cr or _flag(sc, "msd_diffusive"))
+    bounded = _flag(sc, "msd_bounded")  # a well or a channel: the whole-cell MSD cannot decide
+    trusted = long_enough and (has_cr or (_flag(sc, "msd_diffusive") and not bounded))
     why = ""
     code = "not_diffusive" if long_enough else "too_short"
+    if long_enough and bounded and not has_cr:
+        code, note = "msd_bounded", ("confined run: the whole-cell MSD is bounded by the walls and no cage-relative "
+                                     "D_eff_cr was measured (too few cells away from the walls), so D_eff is not "
+                                     "trustworthy")
     if not trusted:
         why = note or ("run too short for D_eff (a time block shorter than min_block_persistence / Dr)"
                        if not long_enough else "MSD not diffusive within the run")

@@ -28,6 +28,8 @@ from fcsweep.analysis.stats import combine
 COMBINED = ("D_eff", "D_eff_long", "D_eff_cr", "D_eff_cr_late", "cage_msd_ratio", "q_mean", "rho_d")
 #: Trust flags and counts: a point takes the smallest over its replicates.
 LEAST = ("msd_long_enough", "msd_diffusive", "n_time_blocks")
+#: Flags of the point's evidence taken as the largest over its replicates (NaN counts as 0).
+MOST = ("msd_bounded",)
 #: Codes and CF flag meanings of ``phase_hysteresis``.
 HYSTERESIS_UNKNOWN, HYSTERESIS_AGREE, HYSTERESIS_DISAGREE, HYSTERESIS_ONE_SIDED = -1, 0, 1, 2
 HYSTERESIS_FLAGS = {HYSTERESIS_UNKNOWN: "unknown", HYSTERESIS_AGREE: "agree", HYSTERESIS_DISAGREE: "disagree",
@@ -46,7 +48,8 @@ def combine_runs(runs) -> dict:
     -------
     dict
         ``<name>``, ``<name>_err`` for :data:`COMBINED` (replicate mean and its error),
-        the smallest of each of :data:`LEAST` (NaN counts as 0), ``cage_lag`` (mean).
+        the smallest of each of :data:`LEAST` and the largest of each of :data:`MOST`
+        (NaN counts as 0), ``cage_lag`` (mean).
     """
     runs = list(runs)
     out = {}
@@ -56,6 +59,9 @@ def combine_runs(runs) -> dict:
     for v in LEAST:
         vals = [float(r.get(v, np.nan)) for r in runs]
         out[v] = float(np.min(np.nan_to_num(vals, nan=0.0))) if vals else float("nan")
+    for v in MOST:
+        vals = [float(r.get(v, np.nan)) for r in runs]
+        out[v] = float(np.max(np.nan_to_num(vals, nan=0.0))) if vals else float("nan")
     lags = [float(r.get("cage_lag", np.nan)) for r in runs]
     out["cage_lag"] = float(np.nanmean(lags)) if np.any(np.isfinite(lags)) else float("nan")
     return out

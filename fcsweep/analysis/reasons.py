@@ -81,6 +81,9 @@ REASONS = (
     _R(15, "decided_q_no_d_eff", "cages broken without D_eff (a movie): not solid, <q> decides", ("phase",)),
     _R(16, "cages_intact_no_d_eff", "cages not broken and no D_eff (a movie): solid cannot be decided",
        ("phase",), "cage not broken"),
+    _R(17, "msd_bounded", "confined run (a well or a channel): the whole-cell MSD is bounded by the walls, so "
+                          "D_eff decides nothing; without a cage-relative D_eff_cr solid cannot be decided",
+       ("phase",), "MSD bounded by walls"),
     _R(20, "near_rho_threshold", "rho_d too close to the percolation threshold", ("percolated",),
        "rho_d near 1/2"),
     _R(21, "decided_rho_d", "rho_d with its error decides", ("percolated",)),
@@ -97,6 +100,8 @@ REASONS = (
     _R(37, "near_kthny_bounds", "eta_G1 or eta_6 too close to its bound (1/3, 1/4)", ("kthny",),
        "near KTHNY bound"),
     _R(38, "decided_exponents", "eta_G1 and eta_6 against their bounds decide", ("kthny",)),
+    _R(39, "not_periodic", "confined run (a well or a channel): the KTHNY correlations and bounds are those of a "
+                           "homogeneous periodic system and are not computed", ("kthny",), "confined"),
     _R(40, "replicates_disagree", "the replicates give different decided labels", _ALL, "replicates disagree"),
     _R(41, "replicates_agree", "the replicates give the same label for different reasons", _ALL),
     _R(42, "starts_disagree", "the two starts give different decided labels", _ALL, "starts disagree"),

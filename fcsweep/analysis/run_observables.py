@@ -13,6 +13,13 @@ The steps, each on its own frames after the transient:
   on a grid (:func:`fcsweep.analysis.correlation_fft.pipeline_spacing`);
 - MSD, D_eff and cage breaking over the equilibrated frames (:func:`diffusion_observables`);
 - the phase and percolation labels with their confidence (:func:`label_observables`).
+
+A confined run (``boundary`` ``well`` or ``channel``, :func:`run_confinement`) takes the
+same steps with the walls (:mod:`fcsweep.analysis.confined`): defects, clusters and |Psi6|
+over the cells counted away from the walls (:func:`confined_structure_observables`), the
+cage rule over the cells at least 2a from the walls, the whole-cell MSD flagged as bounded
+(``msd_bounded``), the KTHNY correlations not computed (reason code ``not_periodic``), and
+the pressure on the wall (:func:`wall_observables`).
 """
 
 from __future__ import annotations
@@ -23,12 +30,13 @@ from typing import Mapping
 
 import numpy as np
 
-from fcsweep.analysis import cage, correlation_fft, diffusion, kthny, order, shapes, voronoi
+from fcsweep.analysis import cage, confined, correlation_fft, diffusion, kthny, order, shapes, voronoi
 from fcsweep.analysis.frames import as_source
 from fcsweep.analysis.msd import frame_drift, log_lag_indices, msd_curve_streamed
 from fcsweep.analysis.phase import classify_percolation, phase_evidence, phase_label
 from fcsweep.analysis.reasons import reason_value
 from fcsweep.analysis.stats import time_average
+from fcsweep.model.confinement import confinement_of_params
 from fcsweep.model.observables import KTHNY_FITS
 
 #: What :func:`kthny_observables` gives: the fits, the label and its confidence.
@@ -36,7 +44,8 @@ KTHNY_SCALARS = KTHNY_FITS + ("kthny", "kthny_confidence", "kthny_reason_code")
 
 __all__ = ["AnalysisError", "FramePlan", "RunFrames", "KTHNY_SCALARS", "frame_plan", "evenly", "compute_observables",
            "shape_observables", "structure_observables", "order_observables", "kthny_observables",
-           "diffusion_observables", "label_observables", "equilibrated_frames", "frame_mean"]
+           "diffusion_observables", "label_observables", "equilibrated_frames", "frame_mean", "run_confinement",
+           "confined_structure_observables", "wall_observables", "not_periodic_kthny"]
 
 
 class AnalysisError(RuntimeError):
@@ -78,6 +87,10 @@ class RunFrames:
     radii : ndarray, shape (N,), or None
         Per-cell radii R0,i when sizes differ (the defects then use the radical
         tessellation, :func:`fcsweep.analysis.voronoi.laguerre_bonds`).
+    wall_positions, wall_theta : ndarray, shapes (len(plan.shape_frames), N, 2) and
+        (len(plan.shape_frames), N), or None
+        Wrapped centroids and orientations on the shape frames: the pressure on the wall
+        of a confined run (None for a periodic run, or not read).
 
     Each array may be a :class:`fcsweep.analysis.frames.FrameSource` of that shape
     instead: the steps then read it a block of frames or of cells at a time
@@ -96,6 +109,8 @@ class RunFrames:
     positions: np.ndarray
     unwrapped: np.ndarray
     radii: np.ndarray | None = None
+    wall_positions: np.ndarray | None = None
+    wall_theta: np.ndarray | None = None
 
     @property
     def n_cells(self) -> int:
@@ -162,23 +177,33 @@ def compute_observables(run: RunFrames, settings: Mapping, *, curves: bool = Tru
     R0 = float(run.params.get("R0", 1.0))
     boxr = run.box / R0  # lengths in units of R0 from here on
     pos = as_source(run.positions).scaled(R0)
+    conf = run_confinement(run)
     sc, cv, q_start = shape_observables(run, settings)
-    # one Voronoi tessellation per structure frame serves the defects and Psi6
-    acc = _OrderFrames(pos.shape[1], boxr, plan.structure_frames, settings, curves)
     sf = plan.structure_frames
-    each = (lambda k, vn: acc.add(sf[k], pos[k], vn)) if (psi6 or curves) else None  # G6, G_r need Psi6
-    radii = None if run.radii is None else np.asarray(run.radii, dtype=float) / R0
-    s2, c2, ds = structure_observables(pos, boxr, sf, each=each, radii=radii)
-    sc.update(s2)
-    cv.update(c2)
-    s3, c3 = acc.finish()
-    sc.update(s3)
-    cv.update(c3)
+    if conf is None:
+        # one Voronoi tessellation per structure frame serves the defects and Psi6
+        acc = _OrderFrames(pos.shape[1], boxr, plan.structure_frames, settings, curves)
+        each = (lambda k, vn: acc.add(sf[k], pos[k], vn)) if (psi6 or curves) else None  # G6, G_r need Psi6
+        radii = None if run.radii is None else np.asarray(run.radii, dtype=float) / R0
+        s2, c2, ds = structure_observables(pos, boxr, sf, each=each, radii=radii)
+        sc.update(s2)
+        cv.update(c2)
+        s3, c3 = acc.finish()
+        sc.update(s3)
+        cv.update(c3)
+    else:
+        s2, c2, ds = confined_structure_observables(pos, conf, sf, psi6=psi6)
+        sc.update(s2)
+        cv.update(c2)
+        sc.update(not_periodic_kthny())
+        if curves:
+            cv.update({name: (np.zeros(0), np.zeros(0)) for name in ("G6", "Gr", "C_G1")})
     starts = ([] if q_start is None else [q_start]) + [plan.structure_frames[ds["rho_d_start"]]]
     eq = equilibrated_frames(plan.frames, starts)
-    s4, c4, est = diffusion_observables(run, eq, boxr, settings, curves=curves)
+    s4, c4, est = diffusion_observables(run, eq, boxr, settings, curves=curves, conf=conf)
     sc.update(s4)
     cv.update(c4)
+    sc.update(wall_observables(run, conf, eq))
     sc.update(label_observables(sc, est, settings, float(run.params.get("Dr", np.nan))))
     extra = {"n_sides_counts": ds["n_sides_counts"], "frames": plan.frames,
              "structure_frames": plan.structure_frames, "shape_frames": plan.shape_frames}
@@ -239,6 +264,98 @@ def structure_observables(pos: np.ndarray, boxr: np.ndarray, frames: np.ndarray,
     counts = ds["cluster_size_counts"]
     cv = {"cluster_size_distribution": (np.arange(1, pos.shape[1] + 1), counts.astype(float))}
     return sc, cv, ds
+
+
+def run_confinement(run: RunFrames):
+    """The run's well or channel in units of R0 (:func:`fcsweep.model.confinement.confinement_of_params`
+    with the run's radii), or None for a periodic run.
+
+    Raises
+    ------
+    AnalysisError
+        When the host box the parameters give is not the run's box.
+    """
+    R0 = float(run.params.get("R0", 1.0))
+    conf = confinement_of_params({**dict(run.params), "N": run.n_cells}, run.radii)
+    if conf is None:
+        return None
+    if not np.allclose(conf.host, run.box, rtol=1e-9, atol=1e-9 * R0):
+        raise AnalysisError(f"{run.source}: the {conf.kind}'s host box {conf.host.tolist()} from the parameters is "
+                            f"not the run's box {np.asarray(run.box).tolist()}")
+    return confined.scaled_confinement(conf, R0)
+
+
+def confined_structure_observables(pos, conf, frames: np.ndarray, *, psi6: bool = True):
+    """Defects, clusters and |Psi6| of a confined run over the counted cells of each frame
+    (:mod:`fcsweep.analysis.confined`: certain sides, at least 2a from the walls).
+
+    Returns
+    -------
+    scalars, curves : dict
+        As :func:`structure_observables`, plus ``psi6``, ``psi6_err`` and
+        ``n_counted_cells``.
+    stats : dict
+        :func:`fcsweep.analysis.confined.confined_defect_statistics`.
+    """
+    N = pos.shape[1]
+    a = confined.lattice_spacing(conf, N)
+    mods = []
+    each = (lambda f, tess, counted: mods.append(confined.confined_psi6(tess, counted))) if psi6 else None
+    ds = confined.confined_defect_statistics(pos, conf, a, frame_indices=frames, each=each)
+    sc = {"n_counted_cells": ds["n_counted_cells"]}
+    for name in ("rho_d", "largest_cluster_fraction", "largest_cluster_fraction_shuffled"):
+        sc[name], sc[f"{name}_err"] = ds[name], ds[f"{name}_err"]
+    m = np.asarray(mods, dtype=float)
+    if m.size and np.all(np.isfinite(m)):
+        ta = time_average(m)
+        sc["psi6"], sc["psi6_err"] = ta.mean, ta.err
+    else:
+        sc["psi6"] = sc["psi6_err"] = np.nan
+    cv = {"cluster_size_distribution": (np.arange(1, N + 1), ds["cluster_size_counts"].astype(float))}
+    return sc, cv, ds
+
+
+def not_periodic_kthny() -> dict:
+    """The KTHNY scalars of a confined run: not computed, reason code ``not_periodic``.
+
+    G6(r), C_G1(r) and G_r are normalised for a homogeneous periodic system (pair counts
+    against the ideal gas of the whole box, r up to half the box) and the KTHNY bounds
+    (eta_G1 <= 1/3, eta_6 <= 1/4) are statements about their algebraic decay over many
+    spacings; in a well or channel the walls order the cells next to them, the density is
+    not uniform across, and the cells away from the walls span a few spacings only."""
+    out = {k: np.nan for k in KTHNY_SCALARS}
+    out["kthny_reason"] = ("not applicable: confined run (well or channel); the KTHNY correlations are those of a "
+                           "homogeneous periodic system")
+    out["kthny_reason_code"] = float(reason_value("not_periodic"))
+    return out
+
+
+def wall_observables(run: RunFrames, conf, eq: np.ndarray) -> dict:
+    """``area_fraction``, ``wall_pressure`` and its error (NaN for a periodic run, and the
+    pressure NaN where the orientations or shapes were not read), ``msd_bounded``, and
+    ``n_counted_cells`` of a periodic run (N).
+
+    The pressure is read on the shape frames from the first equilibrated frame ``eq[0]``
+    on (:func:`fcsweep.analysis.confined.pressure_series`), its mean and error those of a
+    correlated series (:func:`fcsweep.analysis.confined.pressure_observables`)."""
+    nan = float("nan")
+    if conf is None:
+        return {"area_fraction": nan, "wall_pressure": nan, "wall_pressure_err": nan, "msd_bounded": 0.0,
+                "n_counted_cells": float(run.n_cells)}
+    out = {"area_fraction": float(conf.area_fraction), "msd_bounded": 1.0}
+    sf = run.plan.shape_frames
+    keep = np.flatnonzero(sf >= eq[0])
+    shapes_ok = run.rigid or (run.shape_a is not None and run.shape_b is not None)
+    if run.wall_positions is None or run.wall_theta is None or not shapes_ok or keep.size == 0:
+        return {**out, "wall_pressure": nan, "wall_pressure_err": nan}
+    R0 = float(run.params.get("R0", 1.0))
+    radii = None if run.radii is None else np.asarray(run.radii, dtype=float) / R0
+    ab = (None, None) if run.rigid else (as_source(run.shape_a).select(keep), as_source(run.shape_b).select(keep))
+    series = confined.pressure_series(
+        as_source(run.wall_positions).scaled(R0).select(keep), as_source(run.wall_theta).select(keep), *ab, conf,
+        contour_points=int(run.params.get("contour_points", 40)), quadrature=str(run.params.get("quadrature", "arc")),
+        radii=radii)
+    return {**out, **confined.pressure_observables(series)}
 
 
 def order_observables(pos: np.ndarray, boxr: np.ndarray, frames: np.ndarray, settings: Mapping, *,
@@ -346,9 +463,11 @@ def kthny_observables(r, g6_frames, dx, gr_frames, n_cells: int, confidence: flo
 
 
 def diffusion_observables(run: RunFrames, eq: np.ndarray, boxr: np.ndarray, settings: Mapping, *,
-                          curves: bool = True):
+                          curves: bool = True, conf=None):
     """MSD (all frames after the transient, for the curve), D_eff and cage breaking (from the
-    equilibrated frames ``eq``).
+    equilibrated frames ``eq``).  In a confined run (``conf``, lengths in R0) the cage rule
+    counts the cells at least 2a from the walls, its neighbours are the confined
+    Voronoi's and ``a`` the spacing on the area inside the walls.
 
     Returns
     -------
@@ -373,7 +492,7 @@ def diffusion_observables(run: RunFrames, eq: np.ndarray, boxr: np.ndarray, sett
         min_block_persistence=float(settings["min_block_persistence"]),
         fit_start=float(settings["fit_start"]),
         settle_tol=0.1 * diffusion.D_EFF_SOLID * diffusion.free_diffusion(v0, Dr))
-    cb = cage.cage_breaking(t[eq] - t[eq[0]], x, boxr)
+    cb = cage.cage_breaking(t[eq] - t[eq[0]], x, boxr, **_cage_options(conf, x.shape[1]))
     D0 = diffusion.free_diffusion(v0, Dr)
     conv = (lambda d: diffusion.effective_diffusion(d, 0.0, v0, Dr)[0])
     sc = dict(D_s=est.D, D_s_err=est.D_err, D0=D0, D_eff=conv(est.D), D_eff_err=conv(est.D_err),
@@ -391,6 +510,19 @@ def diffusion_observables(run: RunFrames, eq: np.ndarray, boxr: np.ndarray, sett
         cv["F_s"] = (cb.lags, cb.F_s)
         cv["cage_msd"] = (cb.lags, cb.cr_msd)
     return sc, cv, est
+
+
+def _cage_options(conf, n_cells: int) -> dict:
+    """The options of :func:`fcsweep.analysis.cage.cage_breaking` for a confined run ({} if periodic)."""
+    if conf is None:
+        return {}
+    a = confined.lattice_spacing(conf, n_cells)
+
+    def neighbours(p):
+        tess = confined.confined_voronoi(np.mod(p, conf.host), conf)
+        return tess.i, tess.j
+
+    return {"spacing": a, "neighbours": neighbours, "cells": lambda p: confined.wall_distance_mask(p, conf, a)}
 
 
 def label_observables(sc: Mapping, est, settings: Mapping, Dr: float) -> dict:

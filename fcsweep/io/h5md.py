@@ -6,8 +6,9 @@ Layout (see ``results_schema.md``)::
       creator                   attrs name="fcsweep", version=<package version>
       author                    attrs name=<user>
       modules/units             attrs version=[1, 0], system="SI"-free reduced units
-    /particles/cells/box        attrs dimension=2, boundary=["periodic", "periodic"]
-      edges                     (2,) float64  (Lx, Ly)
+    /particles/cells/box        attrs dimension=2, boundary=["periodic", "periodic"] (a well:
+                                ["none", "none"], a channel: ["periodic", "none"])
+      edges                     (2,) float64  (Lx, Ly) (the host box of a well or channel)
     /particles/cells/R0         (N,) float64  per-cell radii R0,i, only when sizes differ
     /particles/cells/<field>/{step (T,) int64, time (T,) float64, value (T, N, ...)}
     /observables/projections/{step, time, value (T,) int64}
@@ -51,6 +52,7 @@ from fcsweep.io.schema import (
 
 __all__ = [
     "create_trajectory",
+    "box_boundary",
     "append_frames",
     "truncate_frames",
     "frame_count",
@@ -176,7 +178,7 @@ def create_trajectory(
     with open_h5(path, "w") as f:
         _write_header(f, creator_version)
         cells = f.require_group(PARTICLES)
-        _write_box(cells, box)
+        _write_box(cells, box, box_boundary(parameters.get("boundary", "periodic")))
         if radii is not None:
             r = cells.create_dataset("R0", data=np.asarray(radii, dtype=np.float64), fletcher32=True)
             r.attrs["unit"] = "R0"
@@ -224,11 +226,19 @@ def _write_header(f: h5py.File, creator_version: str) -> None:
     _vlen_str(units.attrs, "system", UNIT_SYSTEM)
 
 
-def _write_box(cells: h5py.Group, box: Sequence[float]) -> None:
-    """The periodic box of the particle group: ``box/edges`` (Lx, Ly)."""
+def box_boundary(boundary: str) -> list[str]:
+    """The H5MD ``boundary`` attribute of the box for the run parameter ``boundary``: both
+    axes ``periodic`` in the periodic box; ``none`` across a wall (a well: both axes; a
+    channel: y, its x stays periodic).  The ``edges`` are then those of the host box, which
+    holds the well or channel with an empty margin (:mod:`fcsweep.model.confinement`)."""
+    return {"well": ["none", "none"], "channel": ["periodic", "none"]}.get(str(boundary), ["periodic", "periodic"])
+
+
+def _write_box(cells: h5py.Group, box: Sequence[float], boundary=("periodic", "periodic")) -> None:
+    """The box of the particle group: ``box/edges`` (Lx, Ly) and which axes are periodic."""
     boxg = cells.create_group("box")
     boxg.attrs["dimension"] = np.int32(2)
-    _vlen_str(boxg.attrs, "boundary", ["periodic", "periodic"])
+    _vlen_str(boxg.attrs, "boundary", list(boundary))
     edges = boxg.create_dataset("edges", data=np.asarray(box, dtype=np.float64), fletcher32=True)
     _vlen_str(edges.attrs, "unit", LENGTH_UNIT)
 

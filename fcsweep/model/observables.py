@@ -152,6 +152,17 @@ OBSERVABLES: dict[str, Observable] = {o.name: o for o in (
     _O("xi_6", "run", "exponential decay length of G6(r) (units of R0)", group="kthny"),
     _O("xi_6_err", "run", "1-sigma error of xi_6", group="kthny"),
     _O("kthny_confidence", "run", "probability of the KTHNY label given the fit errors"),
+    _O("msd_bounded", "run", "1 for a confined run (well or channel): the whole-cell MSD is bounded by the walls "
+                             "and D_eff decides no phase (the cage rule must), else 0"),
+    _O("n_counted_cells", "run", "cells the defect, cluster and |Psi6| statistics count, frame average: N in a "
+                                 "periodic box; in a well or channel the cells with certain Voronoi sides at least "
+                                 "2a from the walls"),
+    _O("area_fraction", "run", "area fraction of a confined run: sum of pi R0,i^2 over the area inside the walls "
+                               "(NaN in a periodic box: the density parameter)"),
+    _O("wall_pressure", "run", "pressure on the wall: inward-normal wall forces summed over the cells per unit wall "
+                               "length, mean over the equilibrated frames (dimensionless: the wall energy is the "
+                               "cells' area beyond the wall; NaN in a periodic box)", replicate=True),
+    _O("wall_pressure_err", "run", "1-sigma error of wall_pressure (autocorrelation of the frame series)"),
     _O("replicate", "coord", "replicate index (independent noise)"),
     _O("lag_time", "coord", "MSD lag time (model time units)"),
     _O("r", "coord", "pair distance, bin centre (units of R0)"),

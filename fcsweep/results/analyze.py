@@ -175,9 +175,14 @@ def read_run_frames(traj, settings: dict) -> RunFrames:
     a = b = None
     if not rigid and "shape_a" in traj.fields and "shape_b" in traj.fields:
         a, b = (TrajectoryFrames(traj, name, plan.shape_frames) for name in ("shape_a", "shape_b"))
+    wall_pos = wall_theta = None
+    if str(p.get("boundary", "periodic")) != "periodic" and "theta" in traj.fields:  # the pressure on the wall
+        wall_pos = TrajectoryFrames(traj, "position", plan.shape_frames)
+        wall_theta = TrajectoryFrames(traj, "theta", plan.shape_frames)
     return RunFrames(source=str(traj.path), params=p, box=traj.box, time=traj.time, plan=plan, shape_a=a,
                      shape_b=b, rigid=rigid, positions=TrajectoryFrames(traj, "position", plan.structure_frames),
-                     unwrapped=TrajectoryFrames(traj, "position", plan.frames, unwrap=True), radii=traj.radii)
+                     unwrapped=TrajectoryFrames(traj, "position", plan.frames, unwrap=True), radii=traj.radii,
+                     wall_positions=wall_pos, wall_theta=wall_theta)
 
 
 class TrajectoryFrames(FrameSource):
@@ -188,7 +193,7 @@ class TrajectoryFrames(FrameSource):
     ----------
     traj : fcsweep.io.trajectory.Trajectory
     name : str
-        ``position``, ``shape_a`` or ``shape_b``.
+        ``position``, ``theta`` (shape (T, N)), ``shape_a`` or ``shape_b``.
     frames : array_like of int
         Trajectory frame indices, increasing.
     unwrap : bool
@@ -199,7 +204,8 @@ class TrajectoryFrames(FrameSource):
     def __init__(self, traj, name: str, frames, *, unwrap: bool = False):
         self._traj, self._name, self._unwrap = traj, name, unwrap
         width = traj.modes_width if name.startswith("shape") else 2
-        super().__init__((traj.n_frames, traj.n_cells, width), rows=frames)
+        shape = (traj.n_frames, traj.n_cells) if name == "theta" else (traj.n_frames, traj.n_cells, width)
+        super().__init__(shape, rows=frames)
 
     def _read(self, rows, lo, hi):
         cells = slice(lo, hi)

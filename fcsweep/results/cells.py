@@ -12,8 +12,9 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from fcsweep.analysis import shapes, voronoi
+from fcsweep.analysis import confined, shapes, voronoi
 from fcsweep.io.trajectory import Trajectory, TrajectoryError, open_trajectory
+from fcsweep.model.confinement import confinement_of_params
 from fcsweep.model.shape import radius
 
 #: Export formats and the suffix of their output.
@@ -204,12 +205,25 @@ class CellFrame:
         return out
 
 
-def _frame_of(traj: Trajectory, k: int, pos, img, theta, a, b, defects: bool, radii=None) -> CellFrame:
+def run_confinement_of(traj: Trajectory):
+    """The well or channel of a trajectory (its parameters and radii; host-box lengths), or
+    None for the periodic box."""
+    if str(traj.params.get("boundary", "periodic")) == "periodic":
+        return None
+    return confinement_of_params({**dict(traj.params), "N": traj.n_cells}, getattr(traj, "radii", None))
+
+
+def _frame_of(traj: Trajectory, k: int, pos, img, theta, a, b, defects: bool, radii=None, conf=None) -> CellFrame:
     box = np.asarray(traj.box, dtype=float)
     wrapped = np.mod(pos, box)
     img = img + np.round((pos - wrapped) / box).astype(np.int64)  # keeps position + image * box
     n_sides = defect = cluster = None
-    if defects:
+    if defects and conf is not None:  # a well or channel: the defects the analysis counts
+        tess = confined.confined_voronoi(wrapped, conf)
+        counted = confined.counted_cells(wrapped, conf, tess, confined.lattice_spacing(conf, len(wrapped)))
+        n_sides, defect = tess.n_sides, counted & (tess.n_sides != 6)
+        cluster = cluster_ids(defect, tess.i, tess.j)
+    elif defects:
         vn = voronoi.voronoi_neighbors(wrapped, box, radii)
         n_sides, defect = vn.n_sides, voronoi.defect_mask(vn.n_sides)
         cluster = cluster_ids(defect, vn.i, vn.j)
@@ -227,6 +241,7 @@ def iter_frames(traj: Trajectory, frames, *, defects: bool = True):
     rows = max(1, BLOCK_BYTES // max(per_frame, 1))
     has = set(traj.fields)
     radii = getattr(traj, "radii", None) if defects else None  # sizes differ: the radical tessellation
+    conf = run_confinement_of(traj) if defects else None
     for lo in range(0, frames.size, rows):
         block = frames[lo:lo + rows]
         pos = traj.read("position", block)
@@ -237,7 +252,7 @@ def iter_frames(traj: Trajectory, frames, *, defects: bool = True):
         else:
             a = b = np.zeros(pos.shape[:2] + (0,))
         for r, k in enumerate(block):
-            yield _frame_of(traj, int(k), pos[r], img[r], theta[r], a[r], b[r], defects, radii)
+            yield _frame_of(traj, int(k), pos[r], img[r], theta[r], a[r], b[r], defects, radii, conf)
 
 
 def _contour_points(traj: Trajectory) -> int:

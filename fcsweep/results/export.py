@@ -11,6 +11,12 @@ neighbours != 6), the number of Voronoi neighbours ``n_sides``, the defect clust
 not defects), the polarity angle ``theta`` and the Fourier coefficients ``a2 .. aM``,
 ``b2 .. bM`` (mode n = 2..M, docs/model.md).
 
+A confined run (a well or channel) is exported in its host box, which holds the walls with
+an empty margin: no copy is made across a wall (VTK ``images`` copies along a channel's x
+only), and ``defect``, ``n_sides`` and ``cluster`` are those the analysis counts
+(:mod:`fcsweep.analysis.confined`: certain sides, at least 2a from the walls). GSD knows
+periodic boxes only: its box is the host box, and the image counts of a well stay 0.
+
 GSD (HOOMD schema): the box is ``[Lx, Ly, 0, 0, 0, 0]`` with ``configuration/dimensions = 2``;
 positions are the centroids in HOOMD's box centred at the origin, ``x - L/2`` (z = 0), with
 ``particles/image`` the periodic image counts (or, with ``unwrapped=True``, the unwrapped

@@ -13,11 +13,11 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from fcsweep.analysis.fss import FSS_BOOTSTRAP, fss_collapse
+from fcsweep.analysis.fss import FSS_BOOTSTRAP, fss_collapse, not_periodic_reason
 from fcsweep.analysis.percolation import fisher_observables
 from fcsweep.analysis.phase import (KTHNY_FLAGS, KTHNY_UNDETERMINED, MIN_CONFIDENCE, PERCOLATION_FLAGS, PHASE_FLAGS,
                                     RHO_D_PERCOLATION, flag_attrs)
-from fcsweep.analysis.points import COMBINED, DECIDED, HYSTERESIS_FLAGS, LEAST, agree, common_reason, point_labels
+from fcsweep.analysis.points import COMBINED, DECIDED, HYSTERESIS_FLAGS, LEAST, MOST, agree, common_reason, point_labels
 from fcsweep.analysis.reasons import reason_flags, reason_value
 from fcsweep.analysis.stats import combine
 from fcsweep.io.schema import DONE, STATUSES
@@ -31,7 +31,7 @@ META = {**{name: (p.long_name, p.units) for name, p in PARAMETERS.items()},
 #: Observables reduced over replicates (``<name>_rmean``, ``_rmean_err``, ``_rchi2``).
 REPLICATE_VARS = REPLICATE_REDUCED
 #: Per-run numbers the point labels read (:func:`fcsweep.analysis.points.combine_runs`).
-POINT_INPUTS = COMBINED + tuple(f"{v}_err" for v in COMBINED) + LEAST + ("cage_lag",)
+POINT_INPUTS = COMBINED + tuple(f"{v}_err" for v in COMBINED) + LEAST + MOST + ("cage_lag",)
 #: The flags of each label of the observable table (:data:`fcsweep.model.observables.LABELS`).
 LABEL_FLAGS = {"phase": PHASE_FLAGS, "percolated": PERCOLATION_FLAGS, "kthny": KTHNY_FLAGS}
 
@@ -201,6 +201,7 @@ def _collapse_per_slice(ds: xr.Dataset, stat: str, names: tuple, n_bootstrap: in
         return
     reason = names[0].removesuffix("_rho_c") + "_reason"
     rho, pmax, err = (ds[v].transpose("eta", "N", ...) for v in ("rho_d_rmean", f"{stat}_rmean", f"{stat}_rmean_err"))
+    confined = _confined_points(ds)
     dims, shape = list(rho.dims[2:]), rho.shape[2:]
     Ns = np.broadcast_to(ds["N"].values.astype(float)[None, :], rho.shape[:2])
     out = np.full(shape + (len(names),), np.nan)
@@ -210,6 +211,9 @@ def _collapse_per_slice(ds: xr.Dataset, stat: str, names: tuple, n_bootstrap: in
         r, p, e = rho.values[sl].ravel(), pmax.values[sl].ravel(), err.values[sl].ravel()
         n = Ns.ravel()
         ok = np.isfinite(r) & np.isfinite(p)
+        if confined is not None and confined[sl].any():
+            why[idx] = not_periodic_reason()
+            continue
         if np.unique(n[ok]).size < 2:
             why[idx] = f"fewer than two N with finite rho_d and {stat}"
             continue
@@ -219,6 +223,17 @@ def _collapse_per_slice(ds: xr.Dataset, stat: str, names: tuple, n_bootstrap: in
     for k, name in enumerate(names):
         ds[name] = (dims, out[..., k], attrs_of(name))
     ds[reason] = (dims, why, attrs_of(reason))
+
+
+def _confined_points(ds: xr.Dataset):
+    """Points (dimensions ``eta``, ``N``, then the others) with a confined run (a finite
+    ``area_fraction``: a well or channel), or None in a dataset without it."""
+    if "area_fraction" not in ds:
+        return None
+    c = np.isfinite(ds["area_fraction"])
+    if "replicate" in c.dims:
+        c = c.any("replicate")
+    return c.transpose("eta", "N", ...).values
 
 
 def replicate_error_check(ds: xr.Dataset) -> dict:

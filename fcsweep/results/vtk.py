@@ -13,7 +13,8 @@ import numpy as np
 
 from fcsweep.io.failures import remove_stale
 from fcsweep.io.sweepdir import atomic_write
-from fcsweep.results.cells import _contour_points, _open, _progress, cell_contours, iter_frames, parse_frames
+from fcsweep.results.cells import (_contour_points, _open, _progress, cell_contours, iter_frames, parse_frames,
+                                   run_confinement_of)
 
 _VTK_TYPES = {"Float64": np.float64, "Int64": np.int64, "UInt8": np.uint8}
 
@@ -44,8 +45,16 @@ def _data_array(name: str, values, *, binary: bool, components: int = 1, tuples:
     return f'<DataArray {attrs} format="ascii">{text}</DataArray>\n'
 
 
-def periodic_copies(contours: np.ndarray, box) -> tuple[np.ndarray, np.ndarray]:
-    """Contours with a shifted copy on every side of the box that a contour crosses.
+def periodic_axes(traj) -> tuple[bool, bool]:
+    """Which axes of a trajectory's box are periodic: both, or those of its well or channel."""
+    conf = run_confinement_of(traj)
+    return (True, True) if conf is None else conf.periodic
+
+
+def periodic_copies(contours: np.ndarray, box, periodic=(True, True)) -> tuple[np.ndarray, np.ndarray]:
+    """Contours with a shifted copy on every side of the box that a contour crosses, along
+    the periodic axes only (``periodic``: (x, y); a well has none, a channel x only: no
+    copy across a wall).
 
     Returns
     -------
@@ -57,8 +66,9 @@ def periodic_copies(contours: np.ndarray, box) -> tuple[np.ndarray, np.ndarray]:
     box = np.asarray(box, dtype=float)
     lo, hi = contours.min(axis=1), contours.max(axis=1)
     out, owner = [contours], [np.arange(contours.shape[0])]
-    for sx in (-1, 0, 1):
-        for sy in (-1, 0, 1):
+    xs, ys = ((-1, 0, 1) if p else (0,) for p in periodic)
+    for sx in xs:
+        for sy in ys:
             if sx == sy == 0:
                 continue
             s = np.array([sx, sy]) * box
@@ -162,8 +172,8 @@ def export_vtk(traj_path, out_dir, *, frames=None, unwrapped: bool = False, imag
             centre = cf.unwrapped(box) if unwrapped else cf.position
             contours = cell_contours(centre, cf.theta, cf.a, cf.b, R0, K)
             owner = np.arange(traj.n_cells)
-            if images:
-                contours, owner = periodic_copies(contours, box)
+            if images:  # no copy across the wall of a well or channel
+                contours, owner = periodic_copies(contours, box, periodic_axes(traj))
             data = {name: np.asarray(v)[owner] for name, v in cf.per_cell().items()}
             data["cell"] = owner.astype(np.int64)
             data["copy"] = (np.arange(owner.size) >= traj.n_cells).astype(np.uint8)

@@ -1,11 +1,16 @@
 """One frame of one run: cell outlines coloured by q with defects marked
-(:func:`snapshot`, :class:`FrameArtist`), and the files of a run (snapshot, movie)."""
+(:func:`snapshot`, :class:`FrameArtist`), and the files of a run (snapshot, movie).
+
+A confined run (a well or a channel) is drawn in its host box with the wall (a circle,
+or two lines) and without periodic copies across a wall; its defects are those the
+analysis counts (certain sides, at least 2a from the walls: :mod:`fcsweep.analysis.confined`)."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
 from matplotlib.collections import PolyCollection
+from matplotlib.patches import Circle
 from matplotlib.colors import Normalize
 import matplotlib.pyplot as plt
 import numpy as np
@@ -16,8 +21,9 @@ from fcsweep.io.sweepdir import atomic_write
 from fcsweep.model.shape import Q_STAR
 
 
-def cell_polygons(pos, theta, a, b, box, R0=1.0, points=48):
-    """Contours of all cells as polygons, with periodic copies of cells that cross the box.
+def cell_polygons(pos, theta, a, b, box, R0=1.0, points=48, periodic=(True, True)):
+    """Contours of all cells as polygons, with periodic copies of cells that cross the box
+    along its periodic axes (``periodic``: (x, y); none across a wall).
 
     Returns
     -------
@@ -42,12 +48,13 @@ def cell_polygons(pos, theta, a, b, box, R0=1.0, points=48):
     xy = pos[:, None, :] + R[..., None] * np.stack([np.cos(ang), np.sin(ang)], -1)
     polys, owner = [], []
     box = np.asarray(box, dtype=float)
+    xs, ys = ((-1, 0, 1) if p else (0,) for p in periodic)
     for i in range(N):
         lo, hi = xy[i].min(0), xy[i].max(0)
-        for sx in (-1, 0, 1):
-            for sy in (-1, 0, 1):
+        for sx in xs:
+            for sy in ys:
                 s = np.array([sx, sy]) * box
-                if np.all(hi + s > 0) and np.all(lo + s < box):
+                if (sx == 0 and sy == 0) or (np.all(hi + s > 0) and np.all(lo + s < box)):
                     polys.append(xy[i] + s)
                     owner.append(i)
     return polys, np.asarray(owner, dtype=np.int64)
@@ -91,10 +98,14 @@ class FrameArtist:
         resolution whose pixel sizes are multiples of :data:`MACRO_BLOCK` (movie frames).
     style : dict, optional
         Matplotlib settings (default :data:`STYLE`; :data:`SLIDE_STYLE` for movies).
+    conf : fcsweep.model.confinement.Confinement, optional
+        The well or channel (lengths in R0): its wall is drawn, and cells are copied
+        across the periodic axes only.
     """
 
-    def __init__(self, box, *, width=COLUMN, ax=None, dpi=None, style=None):
+    def __init__(self, box, *, width=COLUMN, ax=None, dpi=None, style=None, conf=None):
         self.box = np.asarray(box, dtype=float)
+        self.conf = conf
         style = STYLE if style is None else style
         self.title_size = 0.85 * float(style.get("axes.titlesize", 8))
         with plt.rc_context(style):
@@ -120,6 +131,8 @@ class FrameArtist:
             self.ax.set_xlim(0, self.box[0])
             self.ax.set_ylim(0, self.box[1])
             self.ax.set_aspect("equal")
+            if conf is not None:
+                draw_wall(self.ax, conf)
             self.ax.set_xlabel(r"$x / R_0$")
             self.ax.set_ylabel(r"$y / R_0$")
 
@@ -130,7 +143,9 @@ class FrameArtist:
     def draw(self, pos, theta, a, b, q, defect, title="", radii=None):
         """Replace the drawn frame (``radii``: per-cell radii in R0 when sizes differ);
         returns the figure."""
-        polys, owner = cell_polygons(pos, theta, a, b, self.box, 1.0 if radii is None else radii)
+        periodic = (True, True) if self.conf is None else self.conf.periodic
+        polys, owner = cell_polygons(pos, theta, a, b, self.box, 1.0 if radii is None else radii,
+                                     periodic=periodic)
         q = np.asarray(q, dtype=float)
         defect = np.asarray(defect, dtype=bool)
         d = self._cell_points()
@@ -152,7 +167,16 @@ class FrameArtist:
         return np.asarray(self.fig.canvas.buffer_rgba())[..., :3].copy()
 
 
-def snapshot(pos, theta, a, b, box, q, defect, *, R0=1.0, title="", ax=None):
+def draw_wall(ax, conf, color="0.2", lw=1.2) -> None:
+    """The wall of a well (a circle) or a channel (two lines across the box), in R0."""
+    if conf.kind == "well":
+        ax.add_patch(Circle(tuple(conf.centre), conf.size, fill=False, color=color, lw=lw, zorder=3))
+    else:
+        for y in (conf.y_lo, conf.y_hi):
+            ax.axhline(y, color=color, lw=lw, zorder=3)
+
+
+def snapshot(pos, theta, a, b, box, q, defect, *, R0=1.0, title="", ax=None, conf=None):
     """One frame: every cell's contour filled by its shape index q, defect cells
     (Voronoi neighbours != 6) outlined with a dot at the centroid.
 
@@ -168,19 +192,47 @@ def snapshot(pos, theta, a, b, box, q, defect, *, R0=1.0, title="", ax=None):
         Title (default: N and the defect fraction).
     ax : matplotlib.axes.Axes, optional
         Draw into this Axes (else a new figure one column wide).
+    conf : fcsweep.model.confinement.Confinement, optional
+        A well or channel (lengths in R0): the wall is drawn, no copy crosses it.
 
     Returns
     -------
     matplotlib.figure.Figure
     """
-    art = FrameArtist(box, ax=ax)
+    art = FrameArtist(box, ax=ax, conf=conf)
     return art.draw(pos, theta, a, b, q, defect, title)
 
 
-def _frame(traj, k):
-    """(pos, theta, a, b, q, defect, radii) of frame ``k``, lengths in R0 (``radii``:
-    per-cell radii when sizes differ, else None; defects then from the radical tessellation)."""
-    from fcsweep.analysis import shapes, voronoi
+def _confinement(traj):
+    """The run's well or channel in units of R0, or None (periodic)."""
+    from fcsweep.analysis.confined import scaled_confinement
+    from fcsweep.model.confinement import confinement_of_params
+
+    if str(traj.params.get("boundary", "periodic")) == "periodic":
+        return None
+    conf = confinement_of_params({**dict(traj.params), "N": traj.n_cells}, getattr(traj, "radii", None))
+    return scaled_confinement(conf, float(traj.params.get("R0", 1.0)))
+
+
+def _defects(pos, box, radii, conf):
+    """Defect cells of one frame (lengths in R0) and the defect fraction: of all cells in a
+    periodic box, of the counted cells in a well or channel (NaN if none is counted)."""
+    from fcsweep.analysis import confined, voronoi
+
+    if conf is None:
+        d = voronoi.defect_mask(voronoi.voronoi_neighbors(pos, box, radii).n_sides)
+        return d, float(d.mean())
+    tess = confined.confined_voronoi(pos, conf)
+    counted = confined.counted_cells(pos, conf, tess, confined.lattice_spacing(conf, len(pos)))
+    d = counted & (tess.n_sides != 6)
+    return d, (float(d.sum() / counted.sum()) if counted.any() else float("nan"))
+
+
+def _frame(traj, k, conf=None):
+    """(pos, theta, a, b, q, defect, radii, rho_d) of frame ``k``, lengths in R0 (``radii``:
+    per-cell radii when sizes differ, else None; defects then from the radical tessellation;
+    ``conf``: a well or channel, whose defects are those of the counted cells)."""
+    from fcsweep.analysis import shapes
 
     R0 = float(traj.params.get("R0", 1.0))
     radii = getattr(traj, "radii", None)  # per-cell radii when sizes differ (duck-typed readers: none)
@@ -193,20 +245,22 @@ def _frame(traj, k):
     else:
         a = b = np.zeros((len(pos), 0))
     q = shapes.shape_indices(a, b)
-    defect = voronoi.defect_mask(voronoi.voronoi_neighbors(pos, box, radii).n_sides)
-    return pos, theta, a, b, q, defect, radii
+    defect, rho = _defects(pos, box, radii, conf)
+    return pos, theta, a, b, q, defect, radii, rho
 
 
-def _frame_title(traj, k, defect) -> str:
-    """Two lines: the run and its parameters, then the time and the defect fraction (model units)."""
+def _frame_title(traj, k, rho) -> str:
+    """Two lines: the run and its parameters, then the time and the defect fraction (model
+    units); ``rho``: the defect fraction, or the defect flags of every cell."""
     p = traj.params
+    rho = float(np.mean(rho)) if np.ndim(rho) else float(rho)
 
     def num(name):
         v = p.get(name, "?")
         return f"{float(v):g}" if isinstance(v, (int, float, np.number)) else str(v)
 
     return (rf"run {p.get('run_id', '')}:  $\eta$ = {num('eta')} $F$,  $v_0$ = {num('v0')} $\mu F$" "\n"
-            rf"t = {traj.time[k]:g} {TIME_UNIT},  $\rho_d$ = {np.mean(defect):.2f}")
+            rf"t = {traj.time[k]:g} {TIME_UNIT},  $\rho_d$ = {rho:.2f}")
 
 
 def snapshot_run(traj_path, frame=-1, stem=None) -> list[Path]:
@@ -215,9 +269,10 @@ def snapshot_run(traj_path, frame=-1, stem=None) -> list[Path]:
 
     traj = open_trajectory(traj_path)
     k = int(frame) % traj.n_frames
-    pos, theta, a, b, q, defect, radii = _frame(traj, k)
-    fig = FrameArtist(traj.box / float(traj.params.get("R0", 1.0))).draw(
-        pos, theta, a, b, q, defect, _frame_title(traj, k, defect), radii)
+    conf = _confinement(traj)
+    pos, theta, a, b, q, defect, radii, rho = _frame(traj, k, conf)
+    fig = FrameArtist(traj.box / float(traj.params.get("R0", 1.0)), conf=conf).draw(
+        pos, theta, a, b, q, defect, _frame_title(traj, k, rho), radii)
     stem = stem or Path(traj_path).with_name(f"snapshot_frame{k}")
     return save_figure(fig, stem)
 
@@ -262,15 +317,17 @@ def movie_run(traj_path, out=None, *, fps=10, every=1, dpi=120, progress=True) -
     out.parent.mkdir(parents=True, exist_ok=True)
     frames = range(0, traj.n_frames, max(int(every), 1))
     # frames are whole macro blocks (no rescaling by ffmpeg); yuv420p plays everywhere (QuickTime, browsers)
-    art = FrameArtist(traj.box / float(traj.params.get("R0", 1.0)), width=SLIDE, dpi=dpi, style=SLIDE_STYLE)
+    conf = _confinement(traj)
+    art = FrameArtist(traj.box / float(traj.params.get("R0", 1.0)), width=SLIDE, dpi=dpi, style=SLIDE_STYLE,
+                      conf=conf)
     remove_stale(out.parent, (out.name,))
 
     def write(tmp: Path) -> None:
         with imageio.get_writer(tmp, fps=fps, codec="libx264", quality=8, macro_block_size=MACRO_BLOCK,
                                 pixelformat="yuv420p", ffmpeg_log_level="error") as writer:
             for k in tqdm(frames, desc="movie", unit="frame", disable=not progress):
-                pos, theta, a, b, q, defect, radii = _frame(traj, k)
-                art.draw(pos, theta, a, b, q, defect, _frame_title(traj, k, defect), radii)
+                pos, theta, a, b, q, defect, radii, rho = _frame(traj, k, conf)
+                art.draw(pos, theta, a, b, q, defect, _frame_title(traj, k, rho), radii)
                 writer.append_data(art.rgb())
 
     return atomic_write(out, write, fsync=True, suffix=out.suffix, interruptible=True)
