@@ -98,6 +98,34 @@ def test_a_channel_of_a_lattice_has_no_defect_away_from_the_walls():
     assert C.counted_cells(q, conf, t2, a).sum() == counted.sum()
 
 
+def test_radical_tessellation_of_unequal_cells_in_a_channel():
+    """With per-cell radii the tessellation is the radical (Laguerre) one: at equal radii it is
+    the Voronoi one, bond for bond; for a bidisperse packing the neighbours of every counted
+    cell are those of the periodic radical tessellation of the host box
+    (:func:`fcsweep.analysis.voronoi.laguerre_bonds`, which sees the same cells), and differ
+    from the plain Voronoi ones for some cells."""
+    from fcsweep.analysis.voronoi import laguerre_bonds
+
+    rng = np.random.default_rng(4)
+    conf = confinement_of("channel", 12.0, 256, 0.8)
+    pos = conf.random_points(256, rng, inset=0.3)
+    plain = C.confined_voronoi(pos, conf)
+    same = C.confined_voronoi(pos, conf, np.full(256, 1.0))
+    assert np.array_equal(plain.i, same.i) and np.array_equal(plain.j, same.j)
+    assert np.array_equal(plain.certain, same.certain)
+    radii = np.where(rng.random(256) < 0.5, 0.8, 1.2)
+    tess = C.confined_voronoi(pos, conf, radii)
+    counted = C.counted_cells(pos, conf, tess, C.lattice_spacing(conf, 256))
+    assert counted.sum() > 40
+    li, lj, _ = laguerre_bonds(pos, conf.host, radii)
+    differs = 0
+    for c in np.flatnonzero(counted):
+        mine = set(tess.j[tess.i == c].tolist())
+        assert mine == set(lj[li == c].tolist())
+        differs += mine != set(plain.j[plain.i == c].tolist())
+    assert differs > 0
+
+
 def test_no_bond_across_a_wall():
     """Two rows of cells on either side of the channel's host box edge: no bond between them
     (the host box is periodic along y, the channel is not)."""

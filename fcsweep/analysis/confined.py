@@ -27,7 +27,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import Voronoi
+from scipy.spatial import ConvexHull, Voronoi
 
 from fcsweep.analysis.stats import time_average
 from fcsweep.analysis.voronoi import cluster_size_counts, defect_clusters, shuffled_defects
@@ -90,14 +90,61 @@ def _copies(pos: np.ndarray, conf: Confinement) -> tuple[np.ndarray, int]:
     return pts, n
 
 
-def confined_voronoi(pos, conf: Confinement) -> ConfinedVoronoi:
+def _voronoi_ridges(pts: np.ndarray):
+    """Ridges of the Voronoi tessellation of ``pts``: ridge points (E, 2), ridge vertices
+    (E, 2; -1 at infinity), vertices (V, 2) and each vertex's empty-circle radius (V,)."""
+    vor = Voronoi(pts)
+    rp = np.asarray(vor.ridge_points, np.int64)
+    rv = np.array([r if len(r) == 2 else [-1, -1] for r in vor.ridge_vertices], np.int64).reshape(-1, 2)
+    verts = np.asarray(vor.vertices, float)
+    reach = np.full(len(verts), np.inf)
+    for k in (0, 1):
+        ok = rv[:, k] >= 0
+        reach[rv[ok, k]] = np.linalg.norm(verts[rv[ok, k]] - pts[rp[ok, 0]], axis=1)
+    return rp, rv, verts, reach
+
+
+def _power_ridges(pts: np.ndarray, radii: np.ndarray):
+    """Ridges of the radical (Laguerre, power) tessellation of discs of ``radii`` at ``pts``,
+    as :func:`_voronoi_ridges`; a vertex's reach is the distance beyond which no disc of
+    radius <= max(radii) can change it, sqrt(pi + R_max^2) with pi its power (for equal radii
+    the empty-circle radius)."""
+    w = np.asarray(radii, float) ** 2
+    hull = ConvexHull(np.column_stack([pts, (pts ** 2).sum(axis=1) - w]))
+    faces = hull.simplices[hull.equations[:, 2] < 0]  # the lower hull: the regular triangulation
+    p, q, r = (pts[faces[:, k]] for k in range(3))
+    lift = (pts ** 2).sum(axis=1) - w
+    lp, lq, lr = (lift[faces[:, k]] for k in range(3))
+    A = np.stack([2.0 * (q - p), 2.0 * (r - p)], axis=1)  # (T, 2, 2)
+    verts = np.linalg.solve(A, np.stack([lq - lp, lr - lp], axis=1)[..., None])[..., 0]
+    power = ((verts - p) ** 2).sum(axis=1) - w[faces[:, 0]]
+    reach = np.sqrt(np.maximum(power + w.max(), 0.0))
+    edges = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    tri = np.tile(np.arange(len(faces)), 3)
+    key = np.sort(edges, axis=1)
+    uniq, inv, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    order = np.argsort(inv.ravel(), kind="stable")
+    start = np.concatenate(([0], np.cumsum(counts)[:-1]))
+    # each ridge's two triangles; a ridge on the hull's rim has one (unbounded: -1)
+    rv = np.full((len(uniq), 2), -1, np.int64)
+    two = counts == 2
+    rv[two, 0] = tri[order[start[two]]]
+    rv[two, 1] = tri[order[start[two] + 1]]
+    return uniq.astype(np.int64), rv, verts, reach
+
+
+def confined_voronoi(pos, conf: Confinement, radii=None) -> ConfinedVoronoi:
     """The Voronoi tessellation of the centres ``pos`` (N, 2) inside a well or channel
-    (host-box coordinates, the same length unit as ``conf``).
+    (host-box coordinates, the same length unit as ``conf``); with per-cell ``radii`` the
+    radical (Laguerre) tessellation, whose edges lie where the tangent lengths to two discs
+    are equal (cell size differences, as :func:`fcsweep.analysis.voronoi.laguerre_bonds`).
 
     Parameters
     ----------
     pos : array_like, shape (N, 2)
     conf : Confinement
+    radii : array_like, shape (N,), optional
+        Per-cell radii (conf's length unit).
 
     Returns
     -------
@@ -113,17 +160,13 @@ def confined_voronoi(pos, conf: Confinement) -> ConfinedVoronoi:
         z = np.zeros(0, np.int64)
         return ConfinedVoronoi(z, z.copy(), np.zeros((0, 2)), np.zeros(N, np.int64), np.zeros(N, bool))
     pts, centre = _copies(pos, conf)
-    vor = Voronoi(pts)
-    rp = np.asarray(vor.ridge_points, np.int64)
-    rv = np.array([r if len(r) == 2 else [-1, -1] for r in vor.ridge_vertices], np.int64)
+    if radii is None:
+        rp, rv, verts, reach = _voronoi_ridges(pts)
+    else:
+        rp, rv, verts, reach = _power_ridges(pts, np.tile(np.asarray(radii, float).reshape(N), len(pts) // N))
     lo, hi = centre * N, centre * N + N
-    # a vertex is sound when finite and its empty circle lies inside the walls
-    verts = np.asarray(vor.vertices, float)
-    vr = np.full(len(verts), np.inf)
-    for k in (0, 1):
-        ok = rv[:, k] >= 0
-        vr[rv[ok, k]] = np.linalg.norm(verts[rv[ok, k]] - pts[rp[ok, 0]], axis=1)
-    sound_v = conf.inside_distance(verts) >= vr if len(verts) else np.zeros(0, bool)
+    # a vertex is sound when finite and no cell beyond the walls could change it
+    sound_v = conf.inside_distance(verts) >= reach if len(verts) else np.zeros(0, bool)
     sound = (rv >= 0).all(axis=1)
     sound[sound] = sound_v[rv[sound, 0]] & sound_v[rv[sound, 1]]
     bad = np.zeros(len(pts), bool)
@@ -191,7 +234,8 @@ def frame_defects(tess: ConfinedVoronoi, counted: np.ndarray, frame_index: int) 
             "pmax_shuffled": (ss[0] / n) if ss.size else 0.0, "sizes": sizes, "n_counted": n, "sides": sides}
 
 
-def confined_defect_statistics(frames_pos, conf: Confinement, spacing: float, frame_indices=None, each=None) -> dict:
+def confined_defect_statistics(frames_pos, conf: Confinement, spacing: float, frame_indices=None, each=None,
+                               radii=None) -> dict:
     """:func:`fcsweep.analysis.voronoi.defect_statistics` of a confined run: the same keys,
     over the counted cells of each frame, plus ``n_counted_cells`` (mean over frames) and
     ``n_counted_frames`` (the per-frame counts).
@@ -207,6 +251,8 @@ def confined_defect_statistics(frames_pos, conf: Confinement, spacing: float, fr
         Trajectory index of each frame (default 0 .. F-1).
     each : callable, optional
         ``each(f, tess, counted)`` for every frame (the |Psi6| step reuses the tessellation).
+    radii : array_like, shape (N,), optional
+        Per-cell radii (cell size differences): the radical tessellation.
     """
     F, N = frames_pos.shape[:2]
     fi = np.arange(F) if frame_indices is None else np.asarray(frame_indices, np.int64)
@@ -215,7 +261,7 @@ def confined_defect_statistics(frames_pos, conf: Confinement, spacing: float, fr
     sides = np.zeros(13, np.int64)
     for f in range(F):
         P = np.asarray(frames_pos[f], float)
-        tess = confined_voronoi(P, conf)
+        tess = confined_voronoi(P, conf, radii)
         c = counted_cells(P, conf, tess, spacing)
         if each is not None:
             each(f, tess, c)

@@ -180,11 +180,11 @@ def compute_observables(run: RunFrames, settings: Mapping, *, curves: bool = Tru
     conf = run_confinement(run)
     sc, cv, q_start = shape_observables(run, settings)
     sf = plan.structure_frames
+    radii = None if run.radii is None else np.asarray(run.radii, dtype=float) / R0
     if conf is None:
         # one Voronoi tessellation per structure frame serves the defects and Psi6
         acc = _OrderFrames(pos.shape[1], boxr, plan.structure_frames, settings, curves)
         each = (lambda k, vn: acc.add(sf[k], pos[k], vn)) if (psi6 or curves) else None  # G6, G_r need Psi6
-        radii = None if run.radii is None else np.asarray(run.radii, dtype=float) / R0
         s2, c2, ds = structure_observables(pos, boxr, sf, each=each, radii=radii)
         sc.update(s2)
         cv.update(c2)
@@ -192,7 +192,7 @@ def compute_observables(run: RunFrames, settings: Mapping, *, curves: bool = Tru
         sc.update(s3)
         cv.update(c3)
     else:
-        s2, c2, ds = confined_structure_observables(pos, conf, sf, psi6=psi6)
+        s2, c2, ds = confined_structure_observables(pos, conf, sf, psi6=psi6, radii=radii)
         sc.update(s2)
         cv.update(c2)
         sc.update(not_periodic_kthny())
@@ -285,7 +285,7 @@ def run_confinement(run: RunFrames):
     return confined.scaled_confinement(conf, R0)
 
 
-def confined_structure_observables(pos, conf, frames: np.ndarray, *, psi6: bool = True):
+def confined_structure_observables(pos, conf, frames: np.ndarray, *, psi6: bool = True, radii=None):
     """Defects, clusters and |Psi6| of a confined run over the counted cells of each frame
     (:mod:`fcsweep.analysis.confined`: certain sides, at least 2a from the walls).
 
@@ -301,7 +301,7 @@ def confined_structure_observables(pos, conf, frames: np.ndarray, *, psi6: bool 
     a = confined.lattice_spacing(conf, N)
     mods = []
     each = (lambda f, tess, counted: mods.append(confined.confined_psi6(tess, counted))) if psi6 else None
-    ds = confined.confined_defect_statistics(pos, conf, a, frame_indices=frames, each=each)
+    ds = confined.confined_defect_statistics(pos, conf, a, frame_indices=frames, each=each, radii=radii)
     sc = {"n_counted_cells": ds["n_counted_cells"]}
     for name in ("rho_d", "largest_cluster_fraction", "largest_cluster_fraction_shuffled"):
         sc[name], sc[f"{name}_err"] = ds[name], ds[f"{name}_err"]
