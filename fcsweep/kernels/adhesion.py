@@ -18,6 +18,7 @@ import numpy as np
 from numba import njit, prange
 
 from .fourier import fourier_series
+from .geometry import radius_at
 from .options import NJIT
 from .records import P_ADH, P_ADHR, P_LX, P_LY, P_MUS, P_MUT, P_R0
 
@@ -139,11 +140,7 @@ def adhesion_rates(pos, a, b, prm, periodic, tables, scratch, nl, out, use_list)
     for i in prange(N):
         a0 = geo[i, 0]
         for k in range(K):
-            r = a0
-            d = 0.0
-            for m in range(M1):
-                r += a[i, m] * cosn[m, k] + b[i, m] * sinn[m, k]
-                d += (m + 2.0) * (b[i, m] * cosn[m, k] - a[i, m] * sinn[m, k])
+            r, d = radius_at(a, b, i, k, a0, cosn, sinn)
             tx[i, k] = R0 * r
             ty[i, k] = R0 * d
     for ii in prange(N):

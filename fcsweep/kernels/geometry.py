@@ -126,6 +126,18 @@ def geometry(theta, a, b, R0, tables, scratch, tangents):
         geo[i, 1] = min(R0i * (a0 + s1), rho + math.pi / cphi.shape[0] * R0i * sn1)
 
 
+@njit(inline="always", **NJIT)
+def radius_at(a, b, i, k, a0, cosn, sinn):
+    """R_i(phi_k) / R0,i and R_i'(phi_k) / R0,i of cell i at contour point k (the mode sums;
+    ``a0`` is ``geo[i, 0]``)."""
+    r = a0
+    d = 0.0
+    for m in range(a.shape[1]):
+        r += a[i, m] * cosn[m, k] + b[i, m] * sinn[m, k]
+        d += (m + 2.0) * (b[i, m] * cosn[m, k] - a[i, m] * sinn[m, k])
+    return r, d
+
+
 @njit(**NJIT)
 def gap_at(ox, oy, j, a, b, geo, R0):
     """Radial gap R_j(psi) - |d| of the offset d = (ox, oy) from the centre of cell j

@@ -12,6 +12,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from .geometry import radius_at
 from .options import NJIT
 from .pairs import QUAD_BINARY
 from .records import P_MUS, P_MUT, P_WALL, P_WALLA, P_WALLB, P_WALLC
@@ -99,11 +100,7 @@ def wall_rates(pos, a, b, prm, quad, tables, scratch, out):
         c = geo[i, 2]
         s = geo[i, 3]
         for k in range(K):
-            r = a0
-            d = 0.0
-            for m in range(M1):
-                r += a[i, m] * cosn[m, k] + b[i, m] * sinn[m, k]
-                d += (m + 2.0) * (b[i, m] * cosn[m, k] - a[i, m] * sinn[m, k])
+            r, d = radius_at(a, b, i, k, a0, cosn, sinn)
             ex = c * cphi[k] - s * sphi[k]
             ey = s * cphi[k] + c * sphi[k]
             px[i, k] = _gap(x + R0i * r * ex, y + R0i * r * ey, code, wa, wb, wc)
