@@ -15,11 +15,11 @@ from numba import njit, prange
 from .geometry import radius_at
 from .options import NJIT
 from .pairs import QUAD_BINARY
+from ..model.confinement import WALL_CODES
 from .records import P_MUS, P_MUT, P_WALL, P_WALLA, P_WALLB, P_WALLC
 
-#: Wall codes (:data:`fcsweep.model.confinement.WALL_CODES`).
-WELL = 1
-CHANNEL = 2
+#: The well's code (any other nonzero code is the channel).
+WELL = WALL_CODES["well"]
 
 
 @njit(inline="always", **NJIT)
