@@ -5,11 +5,17 @@ Usage:
     python benchmarks/scaling.py --N 1024 4096 --out benchmarks/results/scaling_analysis.txt
     python benchmarks/scaling.py --end-to-end          # the CLI end to end, N = 1024 4096 16384
     python benchmarks/scaling.py --end-to-end --large  # ... and N = 99 856
+    python benchmarks/scaling.py --threads             # step cell-steps/s at 1 and 2 threads, N = 1024 ... 10^6
 
 ``--end-to-end`` simulates, analyses (FFT correlations) and aggregates one short run per N
 with the real CLI and writes ``benchmarks/results/scaling_end_to_end.txt``
 (:mod:`end_to_end`: cell-steps/s, analysis CPU per frame, peak RSS, bytes per frame and
-per checkpoint, aggregate time, and the analysis/simulation ratio of a 501-frame run).
+per checkpoint, aggregate time, and the analysis/simulation ratio of a 501-frame run),
+then the thread table below for the same N.
+``--threads`` times the step alone at 1 and 2 numba threads (:mod:`thread_scaling`:
+blocks alternating between the thread counts on one state, wall clock) for N = 1024,
+10^4, 99 856 and 10^6 (``--N`` to choose) and writes
+``benchmarks/results/scaling_threads.txt``.
 
 One synthetic frame per N (``benchmarks/snapshots.dense_snapshot``: a hexagonal lattice at
 area fraction 0.9 with Gaussian jitter 0.1 R0 and random admissible shapes, lengths in R0,
@@ -130,19 +136,30 @@ def main(argv=None):
     ap.add_argument("--out", type=pathlib.Path, help="also write the table here")
     ap.add_argument("--end-to-end", action="store_true", help="simulate, analyze, aggregate with the CLI")
     ap.add_argument("--large", action="store_true", help="with --end-to-end: add N = 99 856")
+    ap.add_argument("--threads", action="store_true", help="the step at 1 and 2 numba threads against N")
     ap.add_argument("--steps", type=int, default=400, help="with --end-to-end: steps per run")
     ap.add_argument("--every", type=int, default=100, help="with --end-to-end: steps between frames")
     ap.add_argument("--msd-max", type=int, default=16384,
                     help="with --end-to-end: largest N of the synthetic 401-frame MSD+D_eff timing")
     ap.add_argument("--keep", type=pathlib.Path, help="with --end-to-end: keep the runs under this directory")
     args = ap.parse_args(argv)
+    given_N = "--N" in (argv if argv is not None else sys.argv)
+    results_dir = pathlib.Path(__file__).resolve().parent / "results"
+    if args.threads:
+        import thread_scaling
+
+        sizes = args.N if given_N else [1024, 10000, 99856, 1000000]
+        thread_scaling.main(sizes, out=args.out or results_dir / "scaling_threads.txt")
+        return
     if args.end_to_end:
         import end_to_end
+        import thread_scaling
 
-        sizes = args.N if "--N" in (argv if argv is not None else sys.argv) else [1024, 4096, 16384]
+        sizes = args.N if given_N else [1024, 4096, 16384]
         sizes = sizes + ([99856] if args.large and 99856 not in sizes else [])
-        out = args.out or pathlib.Path(__file__).resolve().parent / "results" / "scaling_end_to_end.txt"
+        out = args.out or results_dir / "scaling_end_to_end.txt"
         end_to_end.main(sizes, steps=args.steps, every=args.every, msd_max=args.msd_max, out=out, keep=args.keep)
+        thread_scaling.main(sizes, out=out.with_name(out.stem + "_threads.txt"))
         return
     freud.parallel.set_num_threads(1)
     results = []

@@ -1,9 +1,14 @@
-"""``analysis.correlations``: pair counts (the default, the reference) or FFT in the per-run analysis.
+"""``analysis.correlations``: pair counts (the reference), FFT, or ``auto`` (the default:
+pairs up to N = 10^4, FFT above) in the per-run analysis.
 
-- The config key: both values pass, anything else fails naming the key and the allowed
-  values; at its default it is left out of every stored settings dict, so an analysis.h5
-  written before the key existed (or by the default) is current for the default and stale
-  for ``fft``.
+- The config key: the three values pass, anything else fails naming the key and the
+  allowed values.  A run's settings resolve ``auto`` by its N; ``pairs`` at N <= 10^4 is
+  left out of the stored settings, so an analysis.h5 written before the key existed (the
+  pair counts) is current for ``auto`` and ``pairs`` there and stale for ``fft``; above
+  10^4 the method is always written out, so such a file (a pair-count analysis of more
+  cells) is stale for ``auto`` and recomputed by FFT.
+- ``fcsweep analyze`` of a run above 10^4 cells with the default settings stores
+  ``correlations = fft`` and is then current (PAIRS_MAX_N lowered for the test).
 - The FFT path of :func:`compute_observables` on a harmonic crystal (eta_G1 = 0.15,
   N = 1024, 10 frames): its frame-mean G6 and C_G1 agree with the pair path's window by window
   within the exchange bound of tests/test_correlation_fft.py (``2 sqrt(2) h / w`` of the
@@ -27,6 +32,7 @@ from synthetic import harmonic_crystal
 from fcsweep.analysis import correlation_fft, kthny
 from fcsweep.analysis.run_observables import RunFrames, compute_observables, frame_plan
 from fcsweep.config import ConfigError, parse_config
+from fcsweep.config.settings import PAIRS_MAX_N, correlation_method, settings_for_run
 from fcsweep.io import schema
 from fcsweep.io.rundir import analysis_is_current
 from fcsweep.results.analyze import DEFAULT_SETTINGS, config_settings, settings_with
@@ -39,33 +45,74 @@ run: {steps: 100, sample_every: 10}
 """
 
 
-@pytest.mark.parametrize("value", ["pairs", "fft"])
-def test_both_values_pass_and_only_fft_is_stored(value):
+@pytest.mark.parametrize("value", ["auto", "pairs", "fft"])
+def test_the_values_pass_and_auto_is_left_out(value):
     cfg = parse_config(CONFIG + f"analysis: {{correlations: {value}}}\n")
     assert cfg.analysis.correlations == value
     s = settings_with(config_settings(cfg))
-    assert ("correlations" in s) == (value == "fft")
-    assert ("correlations" in cfg.to_dict()["analysis"]) == (value == "fft")
+    assert ("correlations" in s) == (value != "auto")
+    assert ("correlations" in cfg.to_dict()["analysis"]) == (value != "auto")
 
 
 def test_a_typo_fails_naming_the_key_and_the_values():
-    with pytest.raises(ConfigError, match=r"analysis\.correlations = 'FFT' is not allowed; allowed: pairs, fft"):
+    with pytest.raises(ConfigError, match=r"analysis\.correlations = 'FFT' is not allowed; allowed: auto, pairs, fft"):
         parse_config(CONFIG + "analysis: {correlations: FFT}\n")
-    with pytest.raises(ValueError, match="allowed: pairs, fft"):
+    with pytest.raises(ValueError, match="allowed: auto, pairs, fft"):
         settings_with({"correlations": "grid"})
 
 
+@pytest.mark.parametrize("requested, N, method, stored", [
+    ("auto", 1024, "pairs", None), ("auto", PAIRS_MAX_N, "pairs", None), ("auto", PAIRS_MAX_N + 1, "fft", "fft"),
+    ("pairs", 1024, "pairs", None), ("pairs", 99856, "pairs", "pairs"),
+    ("fft", 1024, "fft", "fft"), ("fft", 99856, "fft", "fft")])
+def test_a_run_resolves_the_method_by_its_N(requested, N, method, stored):
+    assert correlation_method(requested, N) == method
+    s = settings_for_run(settings_with({"correlations": requested}), N)
+    assert s.get("correlations") == stored
+    # what is stored is read back as the same method
+    assert correlation_method(s.get("correlations", "auto"), N) == method
+    assert settings_for_run(None, N) is None
+
+
 def test_the_default_leaves_stored_settings_unchanged(tmp_path):
-    """A file with the settings main wrote (DEFAULT_SETTINGS, no key) is current for the
-    default however it is asked for, and stale for fft (which recomputes)."""
+    """A file with the settings main wrote (DEFAULT_SETTINGS, no key: the pair counts) is
+    current for the default and for pairs at N <= 10^4, stale for fft, and stale for the
+    default above 10^4 (where the default is FFT)."""
     old = tmp_path / "analysis.h5"
     with h5py.File(old, "w") as f:
         f.attrs[schema.ANALYSIS_SETTINGS_ATTR] = json.dumps(DEFAULT_SETTINGS, sort_keys=True)
         f.attrs[schema.LABEL_RULES_ATTR] = schema.LABEL_RULES
-    assert settings_with() == DEFAULT_SETTINGS == settings_with({"correlations": "pairs"})
+    assert settings_with() == DEFAULT_SETTINGS == settings_with({"correlations": "auto"})
     assert settings_with(config_settings(parse_config(CONFIG))) == DEFAULT_SETTINGS
-    assert analysis_is_current(old, settings=settings_with({"correlations": "pairs"}))
-    assert not analysis_is_current(old, settings=settings_with({"correlations": "fft"}))
+    for asked in ("auto", "pairs"):
+        assert analysis_is_current(old, settings=settings_for_run(settings_with({"correlations": asked}), 4900))
+        assert not analysis_is_current(old, settings=settings_for_run(settings_with({"correlations": asked}),
+                                                                       PAIRS_MAX_N + 1))
+    assert not analysis_is_current(old, settings=settings_for_run(settings_with({"correlations": "fft"}), 4900))
+
+
+def test_analyze_above_the_bound_stores_fft_and_is_then_current(tmp_path, monkeypatch):
+    """The default settings on a run of 16 cells with the bound lowered to 8: the FFT path is
+    taken and recorded, a second call and ``fcsweep status`` find the analysis up to date;
+    with the bound back at 10^4 the same file is stale (the default there is the pair counts)."""
+    from fcsweep.cli.common import status_rows
+    from fcsweep.config import settings as settings_module
+    from fcsweep.results import analyze
+    from fcsweep.sweep.executors import run_sweep
+
+    cfg = parse_config(CONFIG.replace("output: out", f"output: {tmp_path / 'out'}"))
+    (spec,) = cfg.runs()
+    assert run_sweep(cfg, [spec])[0].outcome == "done"
+    traj = cfg.run_dir(spec.run_id) / schema.TRAJECTORY
+    monkeypatch.setattr(settings_module, "PAIRS_MAX_N", 8)
+    assert analyze.analyze_run(traj, transient=cfg.run.transient)["status"] == "done"
+    with h5py.File(traj.with_name(schema.ANALYSIS), "r") as f:
+        assert json.loads(f.attrs[schema.ANALYSIS_SETTINGS_ATTR])["correlations"] == "fft"
+    assert analyze.analyze_run(traj, transient=cfg.run.transient)["status"] == "skipped"
+    assert [r["analysis"] for r in status_rows(cfg)] == ["yes"]
+    monkeypatch.setattr(settings_module, "PAIRS_MAX_N", 10000)
+    assert [r["analysis"] for r in status_rows(cfg)] == ["stale"]
+    assert analyze.analyze_run(traj, transient=cfg.run.transient)["status"] == "done"
 
 
 def _harmonic_run(n=32, eta=0.15, frames=12, seed=7):

@@ -36,6 +36,7 @@ from fcsweep.analysis.msd import frame_drift, log_lag_indices, msd_curve_streame
 from fcsweep.analysis.phase import classify_percolation, phase_evidence, phase_label
 from fcsweep.analysis.reasons import reason_value
 from fcsweep.analysis.stats import time_average
+from fcsweep.config.settings import DEFAULT_CORRELATIONS, correlation_method
 from fcsweep.model.confinement import confinement_of_params
 from fcsweep.model.observables import KTHNY_FITS
 
@@ -365,7 +366,9 @@ def order_observables(pos: np.ndarray, boxr: np.ndarray, frames: np.ndarray, set
 
     The correlations are the pair counts of :mod:`fcsweep.analysis.order`, or with
     ``settings["correlations"] == "fft"`` the same estimators on a grid
-    (:func:`correlation_fft.correlations`, spacing :func:`correlation_fft.pipeline_spacing`).
+    (:func:`correlation_fft.correlations`, spacing :func:`correlation_fft.pipeline_spacing`);
+    ``auto`` (or no key) is ``pairs`` up to 10^4 cells and ``fft`` above
+    (:func:`fcsweep.config.settings.correlation_method`).
     :func:`compute_observables` feeds the same per-frame step the tessellations of the
     defect step instead of tessellating again.
 
@@ -390,9 +393,10 @@ class _OrderFrames:
         self.r = self.dxs = None
         self.spacing = cage.neighbour_spacing(N, boxr)
         self.dr, self.gdx = float(settings["g6_dr"]), float(settings["gr_dx"])
-        self.method = settings.get("correlations", "pairs")
-        if self.method not in ("pairs", "fft"):
-            raise AnalysisError(f"correlations = {self.method!r}; allowed: pairs, fft")
+        try:
+            self.method = correlation_method(settings.get("correlations", DEFAULT_CORRELATIONS), N)
+        except ValueError as exc:
+            raise AnalysisError(str(exc)) from None
         self.h = correlation_fft.pipeline_spacing(boxr, self.dr, self.gdx)
         self.conf = float(settings["label_confidence"])
 

@@ -9,7 +9,7 @@ A sweep file has seven top-level sections (see ``results_schema.md`` and the REA
     model: {density: 0.95, Dr: 0.01, dt: 0.005, modes: 6, contour_points: 40}
     run: {steps: 1000000, sample_every: 1000, checkpoint_every: 100000, transient: 0.2,
           until: {check_every: 100000, min_steps: 200000, confidence: 0.95}}   # until optional
-    analysis: {label_confidence: 0.95, percolation_threshold: 0.5, correlations: pairs}  # optional
+    analysis: {label_confidence: 0.95, percolation_threshold: 0.5, correlations: auto}  # optional
 
 Everything is validated before anything runs; the problems of a file raise one
 :class:`ConfigError` listing them all, each naming the key, the offending value and what

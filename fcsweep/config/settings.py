@@ -36,10 +36,42 @@ LABEL_CONFIDENCE = 0.95
 #: Default ``analysis.percolation_threshold``: rho_d above it is percolated (the paper's 1/2).
 PERCOLATION_THRESHOLD = 0.5
 #: Allowed ``analysis.correlations``: how G6, C_G1 and G_r are computed, ``pairs`` (the pair
-#: counts, O(N^2) per frame; the reference) or ``fft`` (on a grid by FFT, O(N log N)).
-CORRELATIONS = ("pairs", "fft")
-#: Default ``analysis.correlations``; at it the key is left out of the stored settings.
-DEFAULT_CORRELATIONS = "pairs"
+#: counts, O(N^2) per frame; the reference), ``fft`` (on a grid by FFT, O(N log N)) or
+#: ``auto`` (``pairs`` up to :data:`PAIRS_MAX_N` cells, ``fft`` above: :func:`correlation_method`).
+CORRELATIONS = ("auto", "pairs", "fft")
+#: Default ``analysis.correlations``; at it the key is left out of the config's settings.
+DEFAULT_CORRELATIONS = "auto"
+#: Largest N that ``auto`` gives the pair counts: the paper's largest N, so that the analyses of
+#: the paper's sizes stay those of the reference.  Above it the pair query out to half the box
+#: holds ~0.4 N^2 pairs (15 GB of peak memory at N = 16384), the FFT grid O(N).
+PAIRS_MAX_N = 10000
+
+
+def correlation_method(requested: str, N: int) -> str:
+    """``pairs`` or ``fft``: the method ``analysis.correlations = requested`` uses for ``N`` cells."""
+    if requested == "auto":
+        return "pairs" if int(N) <= PAIRS_MAX_N else "fft"
+    if requested not in CORRELATIONS:
+        raise ValueError(f"correlations = {requested!r}; allowed: {', '.join(CORRELATIONS)}")
+    return requested
+
+
+def settings_for_run(settings: dict | None, N: int) -> dict | None:
+    """Analysis settings as one run of ``N`` cells is analysed and stored, with
+    ``correlations`` resolved by :func:`correlation_method`.
+
+    An absent key means ``auto``.  The key is left out where the method is ``pairs`` at
+    ``N <= PAIRS_MAX_N`` (what ``auto`` gives there, and what files written before the key
+    existed hold) and written out otherwise, so that a stored pair-count analysis of more
+    cells reads as made with other settings and is recomputed.  ``None`` stays ``None``.
+    """
+    if settings is None:
+        return None
+    out = dict(settings)
+    method = correlation_method(out.pop("correlations", DEFAULT_CORRELATIONS), N)
+    if method == "fft" or int(N) > PAIRS_MAX_N:
+        out["correlations"] = method
+    return out
 OUTPUT_KEYS = ("dir", "fields", "compression", "compression_level")
 RANGE_KEYS = ("start", "stop", "num", "log")
 

@@ -318,7 +318,7 @@ def _analysis_section(analysis_in, problems: _Problems):
     corr = analysis_in.get("correlations", DEFAULT_CORRELATIONS)
     if corr not in CORRELATIONS:
         problems.add(ConfigError(f"analysis.correlations = {_show(corr)} is not allowed; allowed: "
-                                 f"{', '.join(CORRELATIONS)} (pair counts, or by FFT on a grid)"))
+                                 f"{', '.join(CORRELATIONS)} (auto: pair counts up to 10^4 cells, FFT above; pairs: pair counts, O(N^2); fft: by FFT on a grid)"))
     if problems.count > first:
         return _FAILED
     return AnalysisSettings(float(conf), float(thr), str(corr))

@@ -34,9 +34,11 @@ Analysis settings (``DEFAULT_SETTINGS``; stored with every result):
   config's ``analysis`` section sets both (:func:`config_settings`);
 - lengths of G6(r) and Gr(dx, 0) in units of R0, bin widths ``g6_dr`` and ``gr_dx``;
 - ``correlations`` (:data:`OPTIONAL_SETTINGS`, the config's ``analysis.correlations``):
-  G6, C_G1 and G_r from the pair counts (``pairs``, the default) or by FFT on a grid
-  (``fft``, :mod:`fcsweep.analysis.correlation_fft`).  It is stored only where it is not
-  the default, so analysis.h5 files written before it existed stay current.
+  G6, C_G1 and G_r from the pair counts (``pairs``) or by FFT on a grid (``fft``,
+  :mod:`fcsweep.analysis.correlation_fft`); the default ``auto`` is ``pairs`` up to
+  ``PAIRS_MAX_N`` = 10^4 cells and ``fft`` above (:func:`fcsweep.config.settings.settings_for_run`).
+  It is stored only where it is not ``pairs`` at N <= 10^4, so analysis.h5 files written
+  before it existed stay current.
 """
 
 from __future__ import annotations
@@ -61,7 +63,7 @@ from fcsweep.analysis import run_observables
 from fcsweep.analysis.frames import FrameSource
 from fcsweep.analysis.run_observables import AnalysisError, RunFrames, frame_plan
 from fcsweep.analysis.shapes import Q_EDGES, Q_POINTS
-from fcsweep.config.settings import CORRELATIONS, DEFAULT_CORRELATIONS, RunSettings
+from fcsweep.config.settings import CORRELATIONS, DEFAULT_CORRELATIONS, RunSettings, settings_for_run
 from fcsweep.io import schema
 from fcsweep.io.failures import Terminated, WriteFailure, advice, remove_stale
 from fcsweep.io.machine import worker_layout
@@ -108,8 +110,9 @@ DEFAULT_SETTINGS = {
     "gr_dx": 0.2,
 }
 
-#: Settings stored (and compared, :func:`fcsweep.io.rundir.analysis_is_current`) only where
-#: they differ from these defaults: the settings of files written before they existed hold.
+#: Settings that may be absent, with the meaning of their absence: ``correlations`` is
+#: ``auto`` until :func:`fcsweep.config.settings.settings_for_run` resolves it for a run
+#: (stored only as ``"fft"``; absent in a stored file: the pair counts).
 OPTIONAL_SETTINGS = {"correlations": DEFAULT_CORRELATIONS}
 
 #: Scalar observables stored as attributes of ``/observables`` in analysis.h5: the per-run
@@ -121,7 +124,9 @@ SCALARS = RUN_SCALARS + LABELS
 def settings_with(overrides=None, *, transient=None) -> dict:
     """Analysis settings: the defaults updated by ``overrides`` (unknown keys rejected).
 
-    A key of :data:`OPTIONAL_SETTINGS` is present only where it differs from its default.
+    A key of :data:`OPTIONAL_SETTINGS` is present only where it differs from its default
+    (``correlations``: ``pairs`` or ``fft`` where asked for, absent for ``auto``); a run's
+    analysis resolves it with :func:`fcsweep.config.settings.settings_for_run`.
     """
     s = json.loads(json.dumps(DEFAULT_SETTINGS))
     for k, v in dict(overrides or {}).items():
@@ -309,14 +314,14 @@ def analyze_run(traj_path, out_path=None, *, transient=DEFAULT_TRANSIENT, force=
     """
     traj_path = Path(traj_path)
     out_path = Path(out_path) if out_path is not None else traj_path.with_name(ANALYSIS_FILE)
-    s = settings_with(settings, transient=transient)
+    traj = open_trajectory(traj_path)
+    s = settings_for_run(settings_with(settings, transient=transient), traj.n_cells)
     if not force and analysis_is_current(out_path, settings=s):  # the one rule `fcsweep status` uses too
         try:
             old = read_analysis(out_path)
             return {"status": "skipped", "message": "up to date", "path": str(out_path), **old["scalars"]}
         except (OSError, KeyError, ValueError):
             pass  # unreadable: recompute
-    traj = open_trajectory(traj_path)
     sc, cv, extra = trajectory_observables(traj, s)
     _write_analysis(out_path, traj, s, sc, cv, extra)
     return {"status": "done", "message": f"{int(sc['n_frames'])} frames; {label_summary(sc)}",

@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from fcsweep.config import SweepConfig
+from fcsweep.config.settings import settings_for_run
 from fcsweep.io import schema
 from fcsweep.io.rundir import RunDirectory, analysis_is_current
 from fcsweep.io.sweepdir import run_state
@@ -79,7 +80,8 @@ def collect_status(cfg: SweepConfig, analysis_settings: dict | None = None, *,
                 "wall_seconds": st.get("wall_seconds"),
                 "reason": rs.reason if state == schema.CORRUPT else st.get("reason", ""),
                 "host": lock.get("host") if lock else st.get("host"),
-                "analysis": (analysis_state(rd.path, cfg.run.transient, analysis_settings)
+                "analysis": (analysis_state(rd.path, cfg.run.transient,
+                                            settings_for_run(analysis_settings, int(spec.params["N"])))
                              if state == schema.DONE else ""),
                 "outdated": (settings_change(st.get("fingerprint"), fingerprint_of(cfg, spec))
                              if state == schema.DONE else ""),
