@@ -167,3 +167,45 @@ def test_model_fluid_is_decided_after_500_time_units_and_the_crystal_is_not_call
     crystal, cb = _model_label(0.1, 0.01)
     assert cb.ratio < 0.1
     assert crystal.code not in (PHASE_FLUID, PHASE_SOFT_FLUID), crystal.reason
+
+
+def _reference_curves(x, lags, L, k, n_origins, cells=None):
+    """The cage-relative curves the plain way: lag by lag, each origin tessellated where met."""
+    from scipy.special import j0
+
+    from fcsweep.analysis.voronoi import voronoi_neighbors
+    T, N = x.shape[:2]
+    msd, fs = np.zeros(lags.size), np.zeros(lags.size)
+    for q, m in enumerate(lags):
+        origins = np.unique(np.linspace(0, T - 1 - m, min(n_origins, T - m)).astype(int))
+        for o in origins:
+            vn = voronoi_neighbors(np.mod(x[o], L), L)
+            deg = np.maximum(np.bincount(vn.i, minlength=N), 1)[:, None]
+            use = np.ones(N, bool) if cells is None else cells(x[o])
+            d = x[o + m] - x[o]
+            nb = np.zeros((N, 2))
+            np.add.at(nb, vn.i, d[vn.j])
+            s = np.sum((d - nb / deg) ** 2, axis=1)[use]
+            msd[q] += s.mean() / origins.size
+            fs[q] += j0(k * np.sqrt(s)).mean() / origins.size
+    return msd, fs
+
+
+@pytest.mark.parametrize("cache_bytes", [256 << 20, 0])
+def test_origin_by_origin_curves_equal_the_lag_by_lag_loop_bit_for_bit(monkeypatch, cache_bytes):
+    """cage_breaking tessellates each origin once and keeps shells up to a byte budget
+    (memory at N = 10^5); the curves must be those of the plain loop, whatever the budget,
+    on a window where the cages break (so lags are added past t*) and with counted cells."""
+    from fcsweep.analysis import cage
+    monkeypatch.setattr(cage, "SHELL_CACHE_BYTES", cache_bytes)
+    frames = 101
+    t = np.arange(frames) * 2.0
+    x = abp_positions(256, frames, 2.0, v0=V0, Dr=DR, substeps=4, rng=np.random.default_rng(11))
+    cells = (lambda p: np.mod(p[:, 0], BOX[0]) < 30.0)
+    for counted in (None, cells):
+        cb = cage_breaking(t, x, BOX, cells=counted)
+        assert cb.lags.size > 16  # lags were added past t*: the origins' shells were reused
+        lags = np.rint(cb.lags / 2.0).astype(int)
+        msd, fs = _reference_curves(x, lags, np.asarray(BOX), 2 * np.pi / cb.spacing, cage.N_ORIGINS, counted)
+        np.testing.assert_array_equal(cb.cr_msd, msd)
+        np.testing.assert_array_equal(cb.F_s, fs)
