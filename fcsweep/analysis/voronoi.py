@@ -39,9 +39,11 @@ from fcsweep.analysis.frames import FrameSource
 from fcsweep.analysis.stats import time_average
 
 #: Above this many cells the Voronoi bonds come from scipy's Delaunay triangulation
-#: (:func:`delaunay_bonds`): freud 3.4's Voronoi ran at 4·10^5 random points and failed at
-#: 7·10^5 and on a 10^6-cell near-lattice (measured on this package's 2-D boxes).
-FREUD_VORONOI_MAX = 400_000
+#: (:func:`delaunay_bonds`). freud 3.4's Voronoi takes ~24 kB per cell while it runs
+#: (2.4 GB at N = 99 856, against 0.1 GB for the Delaunay bonds, which are 2.7x faster
+#: there), and it failed at 7·10^5 random points and on a 10^6-cell near-lattice. Up to
+#: 2^16 cells freud's tessellation is kept, so analyses there are unchanged bit for bit.
+FREUD_VORONOI_MAX = 65_536
 
 #: First entry of the seed of the label permutation of each frame (the second is the frame index).
 SHUFFLE_SEED = 3206
@@ -116,9 +118,10 @@ def delaunay_bonds(pos: np.ndarray, box, margin: float | None = None) -> tuple[n
 
     The box is padded with the periodic images of the points within ``margin`` of its
     edges (default: 6 mean spacings, far beyond a Voronoi neighbour of a dense packing);
-    the bonds of the central copy are kept.  Used where freud's Voronoi fails
-    (``FREUD_VORONOI_MAX``); the same bonds as freud's on dense packings
-    (tests/test_voronoi_large.py).
+    the bonds of the central copy are kept.  Used above ``FREUD_VORONOI_MAX`` cells; the
+    same bonds as freud's on dense packings (tests/test_voronoi_large.py) except where four
+    centres are cocircular to rounding, whose vanishing edge one of them may keep (one
+    edge of 3·10^5 in a frame of the N = 99 856 run).
     """
     L = np.asarray(box, dtype=float)
     pos = np.mod(np.asarray(pos, dtype=float), L)
@@ -156,8 +159,9 @@ def voronoi_neighbors(pos: np.ndarray, box, radii=None) -> VoronoiNeighbors:
     """Periodic Voronoi tessellation of the centroids ``pos`` (N, 2) in ``box`` (Lx, Ly);
     with per-cell ``radii`` (N,) the radical (Laguerre) one (:func:`laguerre_bonds`).
     Beyond ``FREUD_VORONOI_MAX`` cells from scipy's Delaunay triangulation
-    (:func:`delaunay_bonds`): freud 3.4's Voronoi fails there (a segmentation fault on a
-    near-lattice of 10^6 cells, ``bad_array_new_length`` on 7·10^5 random points)."""
+    (:func:`delaunay_bonds`): freud 3.4's Voronoi takes 24 kB per cell there and fails
+    further up (a segmentation fault on a near-lattice of 10^6 cells,
+    ``bad_array_new_length`` on 7·10^5 random points)."""
     if radii is None and len(pos) > FREUD_VORONOI_MAX:
         return _from_bonds(*delaunay_bonds(pos, box), len(pos))
     if radii is not None:
