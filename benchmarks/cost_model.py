@@ -11,6 +11,8 @@ shows the load, the CPU ratio the model.
 Usage:
     python benchmarks/cost_model.py                # the built-in demo and a 4-run N = 256 sweep
     python benchmarks/cost_model.py --repeats 2    # repeat the whole comparison
+    python benchmarks/cost_model.py --config benchmarks/fig1c_cost_check.yaml --once
+                                                   # a config of yours, one dry run and one sweep
 """
 
 from __future__ import annotations
@@ -60,12 +62,14 @@ def measure(args, cwd) -> tuple[float, float]:
     return (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime), wall
 
 
-def compare(name, args, cwd, out_opt):
+def compare(name, args, cwd, out_opt, once=False):
     rows = []
     first = args + ["-o", out_opt + "_a"]
     est = estimate(first, cwd)
     got = measure(first, cwd)
     rows.append((f"{name}, timed now", est, got))
+    if once:
+        return rows
     # the second dry run reads the cost the first one cached
     est2 = estimate(first + ["--force"], cwd)
     got2 = measure(args + ["-o", out_opt + "_b"], cwd)
@@ -76,13 +80,19 @@ def compare(name, args, cwd, out_opt):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=1)
+    ap.add_argument("--config", nargs="+", help="check these configs instead of the two built-in sweeps")
+    ap.add_argument("--once", action="store_true", help="one dry run and one sweep each (no cached-cost repeat)")
     a = ap.parse_args(argv)
     print(f"{'sweep':36} {'est CPU':>8} {'CPU':>8} {'ratio':>6} {'est wall':>9} {'wall':>8} {'ratio':>6}")
     for _ in range(a.repeats):
         with tempfile.TemporaryDirectory() as tmp:
-            Path(tmp, "n256.yaml").write_text(N256)
-            rows = compare("demo (4 x N=36, 2000 steps)", [], tmp, "demo")
-            rows += compare("4 x N=256, 4000 steps, arc", ["n256.yaml"], tmp, "n256")
+            if a.config:
+                rows = [r for i, c in enumerate(a.config)
+                        for r in compare(Path(c).name, [str(Path(c).resolve())], tmp, f"c{i}", a.once)]
+            else:
+                Path(tmp, "n256.yaml").write_text(N256)
+                rows = compare("demo (4 x N=36, 2000 steps)", [], tmp, "demo", a.once)
+                rows += compare("4 x N=256, 4000 steps, arc", ["n256.yaml"], tmp, "n256", a.once)
         for label, (ec, ew), (c, w) in rows:
             print(f"{label:36} {ec:8.1f} {c:8.1f} {ec / c:6.2f} {ew:9.1f} {w:8.1f} {ew / w:6.2f}", flush=True)
 

@@ -73,6 +73,34 @@ def test_measurement_without_cache_is_repeatable(monkeypatch):
     assert 1 / 2.0 < a.seconds / b.seconds < 2.0
 
 
+def test_probe_is_the_runs_own_cells_started_disordered_and_capped_in_n():
+    p = cost.probe_params(POINT)
+    assert p == {**POINT, "initial": "disordered"}
+    big = cost.probe_params({**POINT, "N": 1000 * 1000})
+    assert big["N"] == cost.PROBE_MAX_N and big["eta"] == POINT["eta"] and big["initial"] == "disordered"
+    # a well of given radius shrinks with the probe so that its area fraction is the run's
+    from fcsweep.model.confinement import confinement_of_params
+
+    run = {**POINT, "N": 400 * 400, "boundary": "well", "boundary_size": 250.0, "initial": "disordered"}
+    probe = cost.probe_params(run)
+    well, small = confinement_of_params(run), confinement_of_params(probe)
+    assert probe["N"] == cost.PROBE_MAX_N and probe["boundary_size"] == 0.0
+    phi = lambda w: w.cell_area / (np.pi * w.size ** 2)  # noqa: E731
+    assert phi(well) == pytest.approx(400 * 400 / 250.0 ** 2)
+    assert phi(small) == pytest.approx(phi(well), rel=1e-12)
+
+
+def test_confined_and_sized_runs_are_timed_not_guessed(monkeypatch):
+    """The lattice probe could not start a well or a size distribution (both need the
+    disordered start) and fell back to the development machine's number."""
+    monkeypatch.setenv(cost.CACHE_ENV, "off")
+    lines = []
+    for extra in ({"boundary": "well", "initial": "disordered"},
+                  {"size_distribution": "bidisperse", "initial": "disordered"}):
+        c = cost.cell_step_seconds([{**POINT, **extra}], log=lines.append, repeats=1)
+        assert c.source == "measured" and c.seconds > 0, lines
+
+
 def test_fallback_is_the_documented_table(cache_dir):
     c = cost.cell_step_seconds([POINT], measure=False)
     assert c.source == "fallback" and c.seconds == pytest.approx(cost.FALLBACK_US["binary"] * 1e-6)

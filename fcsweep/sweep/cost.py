@@ -2,13 +2,42 @@
 
 Every time estimate of fcsweep -- ``fcsweep bench``, ``fcsweep simulate --dry-run``, the
 time left in ``fcsweep status`` and the cost lines in the comments of ``configs/*.yaml``
-(``benchmarks/config_costs.py``) -- multiplies cell-steps by :func:`cell_step_seconds`.
+(``python benchmarks/readme_numbers.py --only configs``) -- multiplies cell-steps by :func:`cell_step_seconds`.
 
-How a point (one run's parameters) is measured (:func:`measure_point`): the cells leave
-the lattice for ``WARM_CELL_STEPS`` cell-steps (the first contacts form; kernels are
-loaded), then ``REPEATS`` blocks of ``BLOCK_CELL_STEPS`` cell-steps are timed at **one
-numba thread** with the process CPU clock, and the median block gives the seconds per
-cell-step.  Both choices are what made the estimate stable on a loaded machine: the
+How a point (one run's parameters) is measured (:func:`measure_point`): the step is timed
+on a **disordered start** of the run's cells (:meth:`~fcsweep.simulation.Simulation.from_disordered`
+without its model relaxation: random centres pushed apart as soft discs, so every cell touches
+its neighbours and neighbours in space are scattered in memory, as in a run that has flowed
+for a while).  The cells first move for ``WARM_CELL_STEPS`` cell-steps (kernels are loaded),
+then ``REPEATS`` blocks of ``BLOCK_CELL_STEPS`` cell-steps are timed at **one numba thread**
+with the process CPU clock, and the median block gives the seconds per cell-step.  The
+probe has at most :data:`PROBE_MAX_N` cells: the per-cell cost stops growing once a run's
+arrays leave the caches (N = 99 856 and 10^6 ran at the same rate), and a start of 10^6
+cells takes minutes.
+
+Why the disordered start: the step costs what the contacts cost, and in a large run what
+the scattering of neighbours in memory costs.  The former probe timed the step just off
+the lattice, where at area fraction 0.8 the cells do not yet touch; the paper's Fig. 1c
+scene (N = 10^4) then ran 1.9x longer than its dry run said.  Measured in one process
+(``benchmarks/cost_probe.py``, results in ``benchmarks/results/cost_probe.txt``; us per
+cell-step, the runs after 50 time units from the lattice / from a disordered start):
+
+==========================================  ======  =============  ==========
+scene                                        probe  lattice probe  runs
+==========================================  ======  =============  ==========
+N = 1024, area fraction 0.8 (Fig. 1c)         0.82           0.60  0.90, 0.84
+N = 10^4, area fraction 0.8 (Fig. 1c)         1.14           0.48  0.99, 1.20
+N = 1024, 0.95, arc, fluid                    4.33           2.88  4.44, 4.04
+N = 1024, 0.95, eta 0.1, v0 0.01 (solid)      1.05           0.80  0.78, 0.93
+N = 10^4, 0.95, eta 0.1, v0 0.01 (solid)      1.41           0.92  0.90, 1.42
+==========================================  ======  =============  ==========
+
+So the estimate is the cost of a state that flows, or that started disordered; a solid
+that never leaves its lattice runs up to 1.6x faster than estimated (the last rows),
+where the former probe put a flowing run up to 2.4x under.  Runs that start disordered
+are timed on their own kind of start.
+
+Both timing choices are what made the estimate stable on a loaded machine: the
 former probe ran numba's default thread count, and on a 2-core machine shared with other
 jobs a parallel step waits for whichever core is busy, so the same 1e5 cell-steps took
 0.2 to 0.7 CPU s from one block to the next (the dry run of ``configs/phase.yaml`` said
@@ -37,6 +66,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 import platform
 import statistics
@@ -48,12 +78,17 @@ from typing import Callable, Mapping, Sequence
 from fcsweep.io.sweepdir import atomic_write
 
 __all__ = ["CellStepCost", "cell_step_seconds", "measure_point", "setting_points", "fallback_seconds",
-           "cache_file", "machine_fingerprint", "CACHE_ENV", "FALLBACK_US"]
+           "cache_file", "machine_fingerprint", "probe_params", "CACHE_ENV", "FALLBACK_US"]
 
 #: Environment variable: directory of the cost cache, or ``off`` to measure every time.
 CACHE_ENV = "FCSWEEP_COST_CACHE"
-#: Cell-steps off the lattice before timing, cell-steps per timed block, timed blocks.
+#: Cell-steps before timing, cell-steps per timed block, timed blocks.
 WARM_CELL_STEPS, BLOCK_CELL_STEPS, REPEATS = 4e5, 1e5, 5
+#: Most cells the step is timed at (362^2; a run with more is timed at this many).
+PROBE_MAX_N = 362 * 362
+#: The kind of probe, part of a cache entry's key (entries of the former lattice probe
+#: are not read).
+PROBE = "disordered"
 #: Fewest steps in a warm-up or a timed block (small N).
 MIN_STEPS = 10
 #: Age after which a cached measurement is taken again.
@@ -99,7 +134,7 @@ class CellStepCost:
 
 def _point_key(params: Mapping, threads: int) -> str:
     p = {k: params[k] for k in sorted(params) if k not in _NOT_COST}
-    return json.dumps({"params": p, "threads": int(threads)}, sort_keys=True, default=str)
+    return json.dumps({"params": p, "threads": int(threads), "probe": PROBE}, sort_keys=True, default=str)
 
 
 def setting_points(specs) -> list[dict]:
@@ -122,10 +157,33 @@ def fallback_seconds(params: Mapping) -> float:
     return us * 1e-6
 
 
+def probe_params(params: Mapping) -> dict:
+    """The parameters the step of a run is timed at: its own, started disordered, with at
+    most :data:`PROBE_MAX_N` cells (``N`` = 362^2 above; a well of given radius then shrinks
+    to keep the run's area fraction).
+
+    Parameters
+    ----------
+    params : mapping
+        Run parameters (keyword arguments of :meth:`fcsweep.simulation.Simulation.create`).
+    """
+    probe = {**dict(params), "initial": "disordered"}
+    N = int(probe["N"])
+    if N > PROBE_MAX_N:
+        probe["N"] = PROBE_MAX_N
+        if probe.get("boundary", "periodic") == "well" and float(probe.get("boundary_size", 0.0)) > 0:
+            from fcsweep.model.confinement import confinement_of_params
+
+            well = confinement_of_params(params)
+            probe["boundary_size"] = 0.0
+            probe["density"] = well.cell_area / (math.pi * well.size ** 2)
+    return probe
+
+
 def measure_point(params: Mapping, *, threads: int = 1, warm_cell_steps: float = WARM_CELL_STEPS,
                   block_cell_steps: float = BLOCK_CELL_STEPS, repeats: int = REPEATS) -> tuple[float, float]:
-    """Time the step at ``params`` (keyword arguments of
-    :meth:`fcsweep.simulation.Simulation.from_lattice`).
+    """Time the step of a run at ``params`` on its :func:`probe_params` start (keyword
+    arguments of :meth:`fcsweep.simulation.Simulation.create`).
 
     Returns
     -------
@@ -143,7 +201,8 @@ def measure_point(params: Mapping, *, threads: int = 1, warm_cell_steps: float =
     previous = numba.get_num_threads()
     numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
     try:
-        sim = Simulation.from_lattice(**dict(params))
+        probe = probe_params(params)
+        sim = Simulation.from_disordered(relax_time=0.0, **probe)
         N = sim.params.N
         sim.advance(max(int(warm_cell_steps // N), MIN_STEPS))
         steps = max(int(block_cell_steps // N), MIN_STEPS)
