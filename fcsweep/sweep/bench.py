@@ -123,7 +123,7 @@ def bench_sweep(cfg, *, steps=None, warm=None, quadratures=None, threads=1, log=
     Each setting is timed at its first and last run (:func:`fcsweep.sweep.cost.setting_points`)
     with :func:`fcsweep.sweep.cost.cell_step_seconds`, refreshing the machine's cost
     cache; ``steps`` (timed steps per block at N = 1024, scaled by 1024/N) and ``warm``
-    (steps off the lattice) replace its standard protocol, and such timings are not cached.
+    (steps of the probe start before timing) replace its standard protocol, and such timings are not cached.
 
     Returns one :class:`BenchRow` per (setting, quadrature), in order of first
     appearance; ``cell_steps`` is N x run.steps summed over the runs of the setting
@@ -131,7 +131,7 @@ def bench_sweep(cfg, *, steps=None, warm=None, quadratures=None, threads=1, log=
     ``cell_steps_min`` is N x :func:`first_stop` summed likewise: the sweep costs
     between the two.
     """
-    from fcsweep.sweep.cost import cell_step_seconds, setting_points
+    from fcsweep.sweep.cost import PROBE_MAX_N, cell_step_seconds, setting_points
 
     rows = []
     for specs in setting_groups(cfg).values():
@@ -148,7 +148,7 @@ def bench_sweep(cfg, *, steps=None, warm=None, quadratures=None, threads=1, log=
             if steps is not None:
                 options["block_cell_steps"] = float(steps) * 1024
             if warm is not None:
-                options["warm_cell_steps"] = float(warm) * base["N"]
+                options["warm_cell_steps"] = float(warm) * min(int(base["N"]), PROBE_MAX_N)
             cost = cell_step_seconds(points, threads=threads, refresh=True, log=log, **options)
             rows.append(BenchRow({k: points[0][k] for k in COST_KEYS}, len(specs), work, cost.rate,
                                  own=rule == base["quadrature"], cell_steps_min=least, spread=cost.spread))
@@ -206,7 +206,7 @@ def estimate_costs(cfg, plans, *, log=None) -> tuple[list[tuple[float, float]], 
     at the setting's first and last run -- the cached measurement of this machine, or a
     measurement now (compiling the kernels first if needed), which is then cached.
     """
-    from fcsweep.sweep.cost import cell_step_seconds, setting_points
+    from fcsweep.sweep.cost import PROBE_MAX_N, cell_step_seconds, setting_points
 
     groups = setting_groups(cfg)
     costs: dict[tuple, StepCost] = {}
