@@ -166,6 +166,11 @@ def probe_params(params: Mapping) -> dict:
     ----------
     params : mapping
         Run parameters (keyword arguments of :meth:`fcsweep.simulation.Simulation.create`).
+
+    Returns
+    -------
+    dict
+        Keyword arguments of :meth:`fcsweep.simulation.Simulation.from_disordered`.
     """
     probe = {**dict(params), "initial": "disordered"}
     N = int(probe["N"])
