@@ -107,6 +107,38 @@ def test_snapshot_draws_every_cell_with_periodic_copies(tmp_path):
     assert all(p.stat().st_size > 1000 for p in paths)
 
 
+def _defect_share(n_side, width, dpi, defect_every=2):
+    """Share of the axes' pixels drawn in the defect colour for a frame of n_side^2 cells
+    with every ``defect_every``-th cell a defect."""
+    from fcsweep.results.figures.frames import FrameArtist
+
+    N = n_side * n_side
+    pos, box = hexagonal_lattice(N)
+    art = FrameArtist(box, width=width, dpi=dpi)
+    art.draw(pos, np.zeros(N), np.zeros((N, 5)), np.zeros((N, 5)), np.full(N, 3.6), np.arange(N) % defect_every == 0)
+    img = art.rgb().astype(float)
+    bb = art.ax.get_window_extent()
+    h = img.shape[0]
+    inner = img[int(h - bb.y1) + 2:int(h - bb.y0) - 2, int(bb.x0) + 2:int(bb.x1) - 2]
+    vermillion = np.array([213, 94, 0], float)
+    return float(np.mean(np.linalg.norm(inner - vermillion, axis=-1) < 60)), art._cell_points()
+
+
+def test_defect_marks_of_a_crowded_frame_do_not_cover_the_cells():
+    """25 600 cells in a column-wide snapshot at 300 dpi: a cell is about 1 point (4 pixels)
+    across (a 10^5-cell run: half a point). Half the cells are defects. Outlines, drawn at
+    least a pixel wide, are left off below 2 points and the defect dots shrink with the
+    cells, so the defect colour covers a few per cent of the picture and the cells' q shows;
+    with outlines and 1-point dots it covered nearly all of it (the 10^5 snapshot was one
+    vermillion square). Cells larger than 2 points keep their outlines."""
+    share, d = _defect_share(160, 3.4, 300)
+    assert d < 2.0
+    assert share < 0.25
+    share_big, d_big = _defect_share(8, 3.4, 100)
+    assert d_big > 2.0
+    assert 0.02 < share_big < 0.5
+
+
 def test_log_binned_cluster_density_recovers_power_law():
     s = np.arange(1, 5001)
     counts = 1e6 * s ** (-187 / 91)

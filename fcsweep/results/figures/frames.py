@@ -78,6 +78,10 @@ SLIDE_STYLE = {**STYLE, "font.size": 11, "axes.titlesize": 11, "axes.labelsize":
 MACRO_BLOCK = 16
 
 
+#: Smallest cell diameter (points on the page) drawn with outlines.
+SMALLEST_OUTLINED = 2.0
+
+
 class FrameArtist:
     """A figure of one frame that can be redrawn with the next frame (for movies).
 
@@ -149,14 +153,18 @@ class FrameArtist:
         q = np.asarray(q, dtype=float)
         defect = np.asarray(defect, dtype=bool)
         d = self._cell_points()
-        lw = float(np.clip(0.05 * d, 0.15, 0.8))  # outlines stay thin next to small cells
+        # outlines stay thin next to small cells, and go below 2 points a cell (10^4-10^5
+        # cells on a page): a line is drawn at least a pixel wide, and the outlines then
+        # cover every cell; the defects stay marked by dots that shrink with the cells
+        lw = float(np.clip(0.05 * d, 0.15, 0.8)) if d >= SMALLEST_OUTLINED else 0.0
         self.coll.set_verts(polys)
         self.coll.set_array(q[owner])
         self.coll.set_edgecolor(np.where(defect[owner, None], [[0.835, 0.369, 0.0, 1.0]], [[1.0, 1.0, 1.0, 0.9]]))
         self.coll.set_linewidth(np.where(defect[owner], 2.5 * lw, lw))
         p = np.asarray(pos)
         self.dots.set_data(p[defect, 0], p[defect, 1])
-        self.dots.set_markersize(float(np.clip(0.2 * d, 1.0, 3.0)))
+        self.dots.set_markersize(float(np.clip(0.2 * d, min(1.0, 0.5 * d), 3.0)))
+        self.dots.set_markeredgewidth(1.0 if d >= SMALLEST_OUTLINED else 0.0)
         self.ax.set_title(title or f"N = {len(p)}, defect fraction {defect.mean():.2f}", fontsize=self.title_size,
                           loc="left")
         return self.fig
