@@ -206,7 +206,7 @@ def estimate_costs(cfg, plans, *, log=None) -> tuple[list[tuple[float, float]], 
     at the setting's first and last run -- the cached measurement of this machine, or a
     measurement now (compiling the kernels first if needed), which is then cached.
     """
-    from fcsweep.sweep.cost import PROBE_MAX_N, cell_step_seconds, setting_points
+    from fcsweep.sweep.cost import cell_step_seconds, setting_points
 
     groups = setting_groups(cfg)
     costs: dict[tuple, StepCost] = {}

@@ -153,9 +153,9 @@ class FrameArtist:
         q = np.asarray(q, dtype=float)
         defect = np.asarray(defect, dtype=bool)
         d = self._cell_points()
-        # outlines stay thin next to small cells, and go below 2 points a cell (10^4-10^5
-        # cells on a page): a line is drawn at least a pixel wide, and the outlines then
-        # cover every cell; the defects stay marked by dots that shrink with the cells
+        # outlines stay thin next to small cells and are left off below SMALLEST_OUTLINED
+        # (10^4-10^5 cells on a page): a line is drawn at least a pixel wide, so they would
+        # cover every cell; defects stay marked by dots that shrink with the cells
         lw = float(np.clip(0.05 * d, 0.15, 0.8)) if d >= SMALLEST_OUTLINED else 0.0
         self.coll.set_verts(polys)
         self.coll.set_array(q[owner])
