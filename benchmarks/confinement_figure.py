@@ -16,7 +16,6 @@ About a minute on one core.
 from __future__ import annotations
 
 import argparse
-import math
 
 import matplotlib
 

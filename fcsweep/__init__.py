@@ -9,11 +9,6 @@ except PackageNotFoundError:  # running from a source tree without installation
 
 __all__ = ["__version__", "measure"]
 
-# modules that moved (fcsweep.analysis.pipeline -> fcsweep.results.analyze, ...) keep their old names
-from fcsweep import _moved  # noqa: E402
-
-_moved.install()
-
 
 def __getattr__(name):
     # ``fcsweep.measure(labels, ...)`` without importing xarray & co. on ``import fcsweep``

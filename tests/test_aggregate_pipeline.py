@@ -306,7 +306,7 @@ def test_fisher_exponent_per_point_pools_replicates():
     defects says so."""
     from percolation_lattice import cluster_counts
 
-    from fcsweep.results.reduce import _fisher_exponents
+    from fcsweep.results.reduce import fisher_exponents
     from fcsweep.analysis.percolation import TAU_2D
 
     c = np.stack([cluster_counts(32, 1000, p=0.5, seed=s) for s in (21, 22)])  # (replicate, size)
@@ -316,7 +316,7 @@ def test_fisher_exponent_per_point_pools_replicates():
                     coords={"eta": [0.03, 0.1], "replicate": [0, 1], "N": 1024,
                             "cluster_size": np.arange(1, 1025, dtype=np.int32)})
     ds = ds.expand_dims("N").transpose("eta", "N", "replicate", "cluster_size")
-    _fisher_exponents(ds)
+    fisher_exponents(ds)
     crit = ds.sel(eta=0.03).squeeze()
     assert abs(crit["tau_fisher"].item() - TAU_2D) < 2 * crit["tau_fisher_err"].item()
     assert ds["tau_fisher_reason"].sel(eta=0.1).item() == "no defect clusters"

@@ -176,9 +176,9 @@ def test_number_syntax_is_python_and_yaml_1_2(text, value):
     017 is 17 as in YAML 1.2 (not 1.1's octal 15); what YAML 1.1 read as a number reads as before."""
     import yaml
 
-    from fcsweep.config import _UniqueKeyLoader
+    from fcsweep.config import UniqueKeyLoader
 
-    got = yaml.load(f"a: {text}", Loader=_UniqueKeyLoader)["a"]
+    got = yaml.load(f"a: {text}", Loader=UniqueKeyLoader)["a"]
     assert got == value and type(got) is type(value)
 
 
@@ -356,9 +356,9 @@ def test_run_checks_report_every_kind_of_problem():
 def _yaml(text: str):
     import yaml
 
-    from fcsweep.config import _UniqueKeyLoader
+    from fcsweep.config import UniqueKeyLoader
 
-    return yaml.load(text, Loader=_UniqueKeyLoader)
+    return yaml.load(text, Loader=UniqueKeyLoader)
 
 
 def test_schema_command_prints_the_schema_of_the_range_table():

@@ -165,17 +165,17 @@ def _sweep_dataset(n_v0=2):
 
 
 def test_aggregate_stores_one_collapse_per_v0():
-    from fcsweep.results.reduce import _fss
+    from fcsweep.results.reduce import fss_collapses
 
     ds = _sweep_dataset()
-    _fss(ds, n_bootstrap=5)
+    fss_collapses(ds, n_bootstrap=5)
     for name in ("fss_rho_c", "fss_rho_c_err", "fss_nu", "fss_nu_err", "fss_beta", "fss_beta_err", "fss_reason"):
         assert ds[name].dims == ("v0",) and ds[name].attrs["long_name"]
     assert ds["fss_rho_c"].values[0] == pytest.approx(0.42, abs=1e-3)
     assert ds["fss_nu"].values[0] == pytest.approx(1.1, rel=0.03)
     assert np.isnan(ds["fss_rho_c"].values[1]) and "fewer than two N" in ds["fss_reason"].values[1]
     one = _sweep_dataset().isel(N=[0])
-    _fss(one)
+    fss_collapses(one)
     assert "fss_rho_c" not in one  # a single N: nothing to collapse
 
 
@@ -183,12 +183,12 @@ def test_collapse_figures_draw_each_size(tmp_path):
     import matplotlib
 
     matplotlib.use("Agg")
-    from fcsweep.results.reduce import _fss
+    from fcsweep.results.reduce import fss_collapses
     from fcsweep.results.figures import (FSS_FIGURES, fss_collapse_figure, largest_cluster_unscaled,
                                           save_figure)
 
     ds = _sweep_dataset()
-    _fss(ds, n_bootstrap=5)
+    fss_collapses(ds, n_bootstrap=5)
     for exponents in ("fit", "paper"):
         fig = fss_collapse_figure(ds, select={"v0": ds["v0"].values[0]}, exponents=exponents)
         ax = fig.axes[0]

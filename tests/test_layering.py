@@ -1,6 +1,6 @@
 """The floors of the house: model and io at the bottom, then analysis (arrays only: it opens
 no file), results (the files of analysis), the sweep runner and the CLI on top; nothing
-below the CLI imports the CLI.  Moved modules keep their old import paths (fcsweep._moved)."""
+below the CLI imports the CLI."""
 
 from __future__ import annotations
 
@@ -86,46 +86,3 @@ def test_measure_sits_with_analysis(path):
     bad = {m for m in _imports(path) if m.startswith("fcsweep.") and not m.startswith(allowed)}
     assert not bad, f"{path.name} imports {bad}"
 
-
-@pytest.mark.parametrize("old", sorted(__import__("fcsweep._moved", fromlist=["MOVED"]).MOVED))
-def test_moved_modules_keep_their_old_names(old):
-    """``import <old>`` gives the new module itself: the same functions, classes and globals."""
-    import importlib
-
-    from fcsweep._moved import MOVED
-
-    new = importlib.import_module(MOVED[old])
-    assert importlib.import_module(old) is new
-    assert new.__spec__.name == MOVED[old]  # the alias did not take over the module's spec
-    public = [n for n in dir(new) if not n.startswith("_")]
-    assert public and all(getattr(importlib.import_module(old), n) is getattr(new, n) for n in public)
-
-
-def test_moved_submodules_and_names():
-    """Submodules of a moved package and the names users import resolve to the new objects."""
-    import fcsweep.analysis.figures.common as old_common
-    import fcsweep.results.analyze as analyze
-    import fcsweep.results.figures.common as common
-    from fcsweep.analysis.pipeline import analyze_run
-    from fcsweep.analysis.trajectory import open_trajectory
-    from fcsweep.io.trajectory import open_trajectory as new_open
-
-    assert old_common is common and analyze_run is analyze.analyze_run and open_trajectory is new_open
-    from fcsweep.io.observables import OBSERVABLES
-    from fcsweep.model.observables import OBSERVABLES as table
-
-    assert OBSERVABLES is table
-
-
-def test_the_old_pipeline_names_still_import():
-    """What ``fcsweep.analysis.pipeline`` offered before the move: the phase rule's inputs, the
-    frame mean and ``compute_observables`` of an opened trajectory (its old signature)."""
-    from fcsweep.analysis import phase, run_observables
-    from fcsweep.analysis.pipeline import (KTHNY_FIT_KEYS, KTHNY_SCALARS, _frame_mean, cage_evidence,
-                                           compute_observables, equilibrated_frames, solid_test_estimate)
-    from fcsweep.results.analyze import trajectory_observables
-
-    assert compute_observables is trajectory_observables and _frame_mean is run_observables.frame_mean
-    assert cage_evidence is phase.cage_evidence and solid_test_estimate is phase.solid_test_estimate
-    assert equilibrated_frames is run_observables.equilibrated_frames
-    assert set(KTHNY_FIT_KEYS) < set(KTHNY_SCALARS) and "eta_G1" in KTHNY_FIT_KEYS

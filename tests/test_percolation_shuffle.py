@@ -127,7 +127,7 @@ def test_aggregate_stores_the_shuffled_collapse_beside_the_real_one():
     own within 3e-3 (the error of noiseless data, test_fss)."""
     import xarray as xr
 
-    from fcsweep.results.reduce import FSS_SHUFFLED_VARS, FSS_VARS, _fss
+    from fcsweep.results.reduce import FSS_SHUFFLED_VARS, FSS_VARS, fss_collapses
 
     sizes = np.array([256, 1024, 4096])
     rho = np.broadcast_to(np.linspace(0.30, 0.60, 31)[:, None, None], (31, 1, 3))
@@ -141,12 +141,12 @@ def test_aggregate_stores_the_shuffled_collapse_beside_the_real_one():
                      "largest_cluster_fraction_shuffled_rmean_err": err},
                     coords={"eta": np.arange(31.0), "v0": [0.06], "N": sizes.astype(np.int32)})
     old = ds.drop_vars(["largest_cluster_fraction_shuffled_rmean", "largest_cluster_fraction_shuffled_rmean_err"])
-    _fss(ds, n_bootstrap=0)
+    fss_collapses(ds, n_bootstrap=0)
     for name in FSS_VARS + FSS_SHUFFLED_VARS + ("fss_reason", "fss_shuffled_reason"):
         assert ds[name].dims == ("v0",) and ds[name].attrs["long_name"], name
     assert ds["fss_rho_c"].item() == pytest.approx(0.42, abs=3e-3)
     assert ds["fss_shuffled_rho_c"].item() == pytest.approx(0.5, abs=3e-3)
     assert ds["fss_shuffled_nu"].item() == pytest.approx(NU_2D, rel=0.05)
     assert "defect correlations" in ds["fss_shuffled_rho_c"].attrs["long_name"]
-    _fss(old, n_bootstrap=0)  # a dataset without the shuffled statistic: only the real collapse
+    fss_collapses(old, n_bootstrap=0)  # a dataset without the shuffled statistic: only the real collapse
     assert "fss_rho_c" in old and "fss_shuffled_rho_c" not in old

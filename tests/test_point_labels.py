@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from fcsweep.results.reduce import POINT_INPUTS, _point_labels
+from fcsweep.results.reduce import POINT_INPUTS, add_point_labels
 from fcsweep.analysis.cage import broken_probability
 from fcsweep.analysis.phase import (PHASE_FLUID, PHASE_SOLID, PHASE_UNDETERMINED, classify_percolation,
                                     phase_evidence, phase_label)
@@ -107,7 +107,7 @@ def _two_start_dataset():
 
 def test_both_starts_give_per_start_labels_a_common_point_label_and_hysteresis():
     ds = _two_start_dataset()
-    _point_labels(ds, 0.95, 0.5)
+    add_point_labels(ds, 0.95, 0.5)
     assert ds["phase_start"].dims == ("eta", "v0", "N", "initial")
     assert "initial" not in ds["phase_point"].dims and "initial" not in ds["phase_hysteresis"].dims
     start = ds["phase_start"].isel(eta=0, N=0).values  # (v0, initial: disordered, lattice)
@@ -127,7 +127,7 @@ def test_both_starts_give_per_start_labels_a_common_point_label_and_hysteresis()
 
 def test_without_initial_the_point_labels_keep_their_dimensions():
     ds = _two_start_dataset().isel(initial=1, drop=True)
-    _point_labels(ds, 0.95, 0.5)
+    add_point_labels(ds, 0.95, 0.5)
     assert ds["phase_point"].dims == ("eta", "v0", "N") and "phase_hysteresis" not in ds
     assert ds["phase_point"].isel(eta=0, N=0).values.tolist() == [PHASE_SOLID, PHASE_SOLID, PHASE_FLUID]
 

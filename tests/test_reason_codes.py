@@ -271,10 +271,10 @@ def test_the_phase_diagram_takes_its_words_from_the_code_and_the_text_only_witho
 def test_start_and_point_reason_codes_of_two_starts():
     from test_point_labels import _two_start_dataset
 
-    from fcsweep.results.aggregate import _point_labels
+    from fcsweep.results.aggregate import add_point_labels
 
     ds = _two_start_dataset()
-    _point_labels(ds, 0.95, 0.5)
+    add_point_labels(ds, 0.95, 0.5)
     start = np.vectorize(reason_name)(ds["phase_start_reason_code"].isel(eta=0, N=0).values)
     # per v0 (disordered, lattice): both solid; fluid / solid; too short / fluid
     assert start.tolist() == [["solid_cages_intact"] * 2, ["decided_cages_broken", "solid_cages_intact"],

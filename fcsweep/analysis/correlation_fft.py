@@ -128,13 +128,6 @@ def cell_index(pos: np.ndarray, grid: Grid) -> np.ndarray:
     return ix * ny + iy
 
 
-def snap(pos: np.ndarray, grid: Grid) -> np.ndarray:
-    """The centres moved to the centres of their cells: the positions the FFT estimators bin by."""
-    idx = cell_index(pos, grid)
-    hx, hy = grid.spacing
-    return np.stack([(idx // grid.shape[1] + 0.5) * hx, (idx % grid.shape[1] + 0.5) * hy], axis=1)
-
-
 def _power(idx: np.ndarray, grid: Grid, weights, workers: int) -> np.ndarray:
     """``|FFT W|^2`` summed over the real and imaginary part of the deposited weights."""
     out = None

@@ -104,7 +104,7 @@ class Label:
             raise ValueError(f"undeclared reason code {self.reason_code!r}")
 
 
-def _p_above(x: float, err: float, threshold: float) -> float:
+def p_above(x: float, err: float, threshold: float) -> float:
     """P(true value > threshold) for a Gaussian estimate ``x +- err`` (err 0: a step)."""
     if err > 0:
         return float(ndtr((x - threshold) / err))
@@ -120,8 +120,8 @@ def phase_probabilities(D_eff, D_eff_err, q_mean, q_mean_err, *, d_solid: float 
     dict
         phase code -> probability; NaN errors give NaN probabilities.
     """
-    p_solid = 1.0 - _p_above(float(D_eff), float(D_eff_err), d_solid)
-    p_soft = _p_above(float(q_mean), float(q_mean_err), q_star)
+    p_solid = 1.0 - p_above(float(D_eff), float(D_eff_err), d_solid)
+    p_soft = p_above(float(q_mean), float(q_mean_err), q_star)
     if not np.isfinite(q_mean):
         p_soft = float("nan")
     return {PHASE_SOLID: p_solid, PHASE_SOFT_FLUID: (1 - p_solid) * p_soft,
@@ -173,7 +173,7 @@ def classify_phase(D_eff, D_eff_err, q_mean, q_mean_err, *, diffusion_ok: bool =
     if np.isfinite(q) and np.isfinite(qe):
         p = phase_probabilities(D, De, q, qe, d_solid=d_solid, q_star=q_star)
     else:
-        p = {PHASE_SOLID: 1.0 - _p_above(D, De, d_solid)}
+        p = {PHASE_SOLID: 1.0 - p_above(D, De, d_solid)}
         if p[PHASE_SOLID] < min_confidence:  # fluid or soft fluid: <q> must decide
             if not np.isfinite(q):
                 return Label(PHASE_UNKNOWN, float("nan"), "<q> not available", "not_available")
@@ -324,7 +324,7 @@ def phase_label(ev: PhaseEvidence, *, min_confidence: float = MIN_CONFIDENCE, d_
         return _broken_label(ev, min_confidence, d_solid, q_star)
     D, De = ev.D_solid, ev.D_solid_err
     d_known = ev.solid_trusted and np.isfinite(D) and np.isfinite(De)
-    p_solid_d = 1.0 - _p_above(D, De, d_solid) if d_known else float("nan")
+    p_solid_d = 1.0 - p_above(D, De, d_solid) if d_known else float("nan")
     if d_known and p_solid_d >= min_confidence:
         conf = float(p_solid_d * (1.0 - p_b if np.isfinite(p_b) else 1.0))
         if conf < min_confidence:
@@ -359,7 +359,7 @@ def _broken_label(ev: PhaseEvidence, min_confidence, d_solid, q_star) -> Label:
     if not (np.isfinite(De) and De > 0):
         return Label(PHASE_UNDETERMINED, float("nan"), f"{cages} but D_eff_cr_late has no error estimate",
                      "no_error")
-    p_solid = 1.0 - _p_above(D, De, d_solid)
+    p_solid = 1.0 - p_above(D, De, d_solid)
     late = f"D_eff_cr_late = {_fmt(D, De)}"
     if p_solid >= min_confidence:
         return Label(PHASE_SOLID, float(p_solid), f"{cages}; {late}: P(solid) = {p_solid:.3f}",
@@ -373,7 +373,7 @@ def _broken_label(ev: PhaseEvidence, min_confidence, d_solid, q_star) -> Label:
         return Label(PHASE_UNKNOWN, float("nan"), "<q> not available", "not_available")
     if not np.isfinite(qe):
         return Label(PHASE_UNDETERMINED, float("nan"), "<q> has no error estimate", "no_error")
-    p_soft = _p_above(q, qe, q_star)
+    p_soft = p_above(q, qe, q_star)
     p = {PHASE_SOFT_FLUID: (1.0 - p_solid) * p_soft, PHASE_FLUID: (1.0 - p_solid) * (1.0 - p_soft)}
     best = max(p, key=lambda k: p[k])
     conf = float(p[best])
@@ -392,7 +392,7 @@ def classify_percolation(rho_d, rho_d_err, *, min_confidence: float = MIN_CONFID
         return Label(-1, float("nan"), "rho_d not available", "not_available")
     if not np.isfinite(e):
         return Label(PERCOLATION_UNDETERMINED, float("nan"), "rho_d has no error estimate", "no_error")
-    p = _p_above(r, e, threshold)
+    p = p_above(r, e, threshold)
     conf = max(p, 1 - p)
     if conf < min_confidence:
         return Label(PERCOLATION_UNDETERMINED, conf,

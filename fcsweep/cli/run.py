@@ -45,7 +45,8 @@ def schema():
               help="Timed steps per block at N = 1024 (scaled by 1024/N; median of 5 blocks) "
                    "[default: 1e5 cell-steps per block; other values are not cached].")
 @click.option("--warm", type=click.IntRange(min=0), default=None,
-              help="Steps of the probe start (a disordered start of the run's cells) before timing [default: 4e5 cell-steps].")
+              help="Steps of the probe start (a disordered start of the run's cells) before timing "
+                   "[default: 4e5 cell-steps].")
 @click.option("--threads", type=click.IntRange(min=1), default=1, show_default=True,
               help="numba threads per run while timing (1: CPU time; more: wall time on free cores).")
 @click.option("--workers", "-j", type=click.IntRange(min=1), default=1, show_default=True,

@@ -57,7 +57,7 @@ from fcsweep.config.schema import json_schema
 from fcsweep.config.settings import (DEFAULT_FIELDS, DEFAULT_TRANSIENT, FIELDS, MODEL_DEFAULTS, RunSettings,
                                      RunSpec, StoreSettings, SweepConfig, UntilSettings, run_id_of, seed_of)
 from fcsweep.config.validate import builtin_demo_path, load_config, parse_config
-from fcsweep.config.yaml12 import MAX_CONFIG_BYTES, _UniqueKeyLoader
+from fcsweep.config.yaml12 import MAX_CONFIG_BYTES, UniqueKeyLoader
 from fcsweep.model.observables import UNTIL_OBSERVABLES
 
 __all__ = [
@@ -94,5 +94,5 @@ __all__ = [
     "MAX_STEP_PER_SPACING",
     "MAX_STEP_PER_R0",
     "MAX_DR_DT",
-    "_UniqueKeyLoader",
+    "UniqueKeyLoader",
 ]

@@ -64,11 +64,11 @@ class ConfigError(ValueError):
 MAX_LISTED = 30
 
 
-#: Sentinel of a value whose check failed (its problem is recorded in a :class:`_Problems`).
-_FAILED = object()
+#: Sentinel of a value whose check failed (its problem is recorded in a :class:`ConfigProblems`).
+FAILED = object()
 
 
-class _Problems:
+class ConfigProblems:
     """The problems of one file, collected so that all are reported at once."""
 
     def __init__(self):
@@ -84,12 +84,12 @@ class _Problems:
                 self.messages.append(p)
 
     def attempt(self, fn, *args, **kwargs):
-        """``fn(*args, **kwargs)``, or :data:`_FAILED` with its ConfigError recorded."""
+        """``fn(*args, **kwargs)``, or :data:`FAILED` with its ConfigError recorded."""
         try:
             return fn(*args, **kwargs)
         except ConfigError as exc:
             self.add(exc)
-            return _FAILED
+            return FAILED
 
     def keys(self, d: Mapping, allowed, where: str) -> set:
         """Record every key of ``d`` not in ``allowed``; return the keys suggested instead
@@ -97,7 +97,7 @@ class _Problems:
         suggested = set()
         for k in d:
             if k not in allowed:
-                self.add(_unknown(k, allowed, where))
+                self.add(unknown_key(k, allowed, where))
                 hint = _suggest(k, allowed)
                 if hint is not None:
                     suggested.add(hint)
@@ -117,7 +117,7 @@ _REPR.maxlist = _REPR.maxdict = _REPR.maxset = _REPR.maxtuple = 8
 _REPR.maxlevel = 3
 
 
-def _show(value) -> str:
+def show_value(value) -> str:
     """``repr`` cut to one short line (values may be huge or deeply nested)."""
     try:
         return _REPR.repr(value)
@@ -152,15 +152,15 @@ def _suggest(key, allowed) -> str | None:
     return close[0] if close else None
 
 
-def _unknown(key: str, allowed, where: str) -> ConfigError:
+def unknown_key(key: str, allowed, where: str) -> ConfigError:
     close = _suggest(key, allowed)
     hint = f"; did you mean {close!r}?" if close is not None else ""
     return ConfigError(
-        f"unknown key {where}{_show(key)}{hint} (allowed: {', '.join(map(str, allowed))})"
+        f"unknown key {where}{show_value(key)}{hint} (allowed: {', '.join(map(str, allowed))})"
     )
 
 
-def _is_int(x) -> bool:
+def is_whole(x) -> bool:
     return isinstance(x, (int, np.integer)) and not isinstance(x, bool)
 
 
@@ -168,7 +168,7 @@ def _is_real(x) -> bool:
     return isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, bool)
 
 
-def _int(value, key: str, *, minimum: int | None = None, maximum: int | None = None,
+def as_int(value, key: str, *, minimum: int | None = None, maximum: int | None = None,
          allowed: str | None = None) -> int:
     """``value`` as an int: an integer, or a float with an integral value (``2.0e3``).
 
@@ -184,27 +184,27 @@ def _int(value, key: str, *, minimum: int | None = None, maximum: int | None = N
         value = int(value)
     if maximum is not None and _is_real(value) and value > maximum:  # also 1e30, before int() of it
         low = f"{minimum} <= " if minimum is not None else ""
-        raise ConfigError(f"{key} = {_show(value)} is out of range; allowed {low}{name} <= {maximum}")
+        raise ConfigError(f"{key} = {show_value(value)} is out of range; allowed {low}{name} <= {maximum}")
     if isinstance(value, float) and value.is_integer():  # beyond 2**53 a float is not exact
-        raise ConfigError(f"{key} = {_show(value)} {kind} (write it in digits: a float above 2**53 "
+        raise ConfigError(f"{key} = {show_value(value)} {kind} (write it in digits: a float above 2**53 "
                           "is not an exact integer)")
-    if not _is_int(value):
-        raise ConfigError(f"{key} = {_show(value)} {kind}")
+    if not is_whole(value):
+        raise ConfigError(f"{key} = {show_value(value)} {kind}")
     value = int(value)
     if minimum is not None and value < minimum:
         raise ConfigError(f"{key} = {value} must be an integer >= {minimum}")
     return value
 
 
-def _real(value, key: str, allowed: str | None = None) -> float:
+def as_real(value, key: str, allowed: str | None = None) -> float:
     """``value`` as a finite float; ``allowed`` describes the range in the type error."""
     tail = f"; {allowed}" if allowed else ""
     if not _is_real(value):
-        raise ConfigError(f"{key} = {_show(value)} must be a number{tail}")
+        raise ConfigError(f"{key} = {show_value(value)} must be a number{tail}")
     try:
         value = float(value)
     except OverflowError:  # an int beyond float range
-        raise ConfigError(f"{key} = {_show(value)} must be a finite number{tail}") from None
+        raise ConfigError(f"{key} = {show_value(value)} must be a finite number{tail}") from None
     if not math.isfinite(value):
         raise ConfigError(f"{key} = {value!r} must be a finite number{tail}")
     return value

@@ -11,7 +11,7 @@ import os
 from pathlib import Path
 from typing import TYPE_CHECKING, Mapping
 
-from fcsweep.config.errors import ConfigError, _Problems, _is_int, _show
+from fcsweep.config.errors import ConfigError, ConfigProblems, is_whole, show_value
 from fcsweep.model.confinement import boundary_problem
 from fcsweep.model.integrators import DEFAULT_INTEGRATOR, integrator_problem
 from fcsweep.model.parameters import core_exponent_problem
@@ -66,7 +66,7 @@ def check_runnable(cfg: "SweepConfig") -> None:
     aggregate, plot) do not, so sweeps computed before a check existed stay readable.
     """
     grid, model = cfg.grid, cfg.model
-    problems = _Problems()
+    problems = ConfigProblems()
 
     def where(name):
         return f"grid.{name}" if name in grid else f"model.{name}"
@@ -126,13 +126,13 @@ def _axis_length(name: str, spec) -> int:
         num = spec.get("num")
         if isinstance(num, float) and num.is_integer() and math.isfinite(num):
             num = int(num)
-        return num if _is_int(num) and num > 0 else 0
+        return num if is_whole(num) and num > 0 else 0
     if isinstance(spec, (list, tuple)):
         return len(spec)
     return 1
 
 
-def _check_run_count(grid_in: Mapping, replicates: int) -> None:
+def check_run_count(grid_in: Mapping, replicates: int) -> None:
     """Refuse a sweep of more than MAX_RUNS runs, counted before any grid is expanded."""
     lengths = {str(k): _axis_length(str(k), v) for k, v in grid_in.items()}
     allowed = f"at most {MAX_RUNS} runs (grid points x replicates)"
@@ -147,7 +147,7 @@ def _check_run_count(grid_in: Mapping, replicates: int) -> None:
                           "split it into several sweep files")
 
 
-def _check_run_length(run: RunSettings, grid: Mapping, model: Mapping) -> None:
+def check_run_length(run: RunSettings, grid: Mapping, model: Mapping) -> None:
     """Frames and cell-steps of one run within MAX_FRAMES and MAX_CELL_STEPS."""
     if run.n_frames > MAX_FRAMES:
         raise ConfigError(f"run.sample_every = {run.sample_every} gives {run.n_frames} frames of run.steps = "
@@ -159,16 +159,16 @@ def _check_run_length(run: RunSettings, grid: Mapping, model: Mapping) -> None:
                           f"per run; allowed N x steps <= {MAX_CELL_STEPS:.0e} (about 3 CPU-years)")
 
 
-def _check_output_path(output: str) -> None:
+def check_output_path(output: str) -> None:
     """Output paths that no file system can hold (NUL bytes, over-long names)."""
     if "\0" in output:
-        raise ConfigError(f"output = {_show(output)} contains a NUL character; no file system allows it")
+        raise ConfigError(f"output = {show_value(output)} contains a NUL character; no file system allows it")
     raw = os.fsencode(output)
     if len(raw) > MAX_PATH_BYTES:
-        raise ConfigError(f"output = {_show(output)} is {len(raw)} bytes long; allowed at most {MAX_PATH_BYTES}")
+        raise ConfigError(f"output = {show_value(output)} is {len(raw)} bytes long; allowed at most {MAX_PATH_BYTES}")
     for part in raw.split(b"/"):
         if len(part) > MAX_NAME_BYTES:
-            raise ConfigError(f"output = {_show(output)} has a {len(part)}-byte component; allowed at most "
+            raise ConfigError(f"output = {show_value(output)} has a {len(part)}-byte component; allowed at most "
                               f"{MAX_NAME_BYTES} bytes per directory name")
 
 

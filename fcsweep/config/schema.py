@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from fcsweep.config.limits import MAX_RUNS, MAX_STEPS
-from fcsweep.config.params import _allowed
+from fcsweep.config.params import allowed_values
 from fcsweep.config.settings import COMPRESSIONS, CORRELATIONS, FIELDS, MODEL_DEFAULTS
 from fcsweep.model.observables import UNTIL_OBSERVABLES
 from fcsweep.model.parameters import INT_PARAMS, PARAMETERS, STR_PARAMS
@@ -13,7 +13,7 @@ from fcsweep.model.parameters import INT_PARAMS, PARAMETERS, STR_PARAMS
 
 def _param_schema(name: str) -> dict[str, Any]:
     """JSON Schema of one model parameter value, from its row of the parameter table."""
-    doc = {"description": f"{PARAMETERS[name].doc}; {_allowed(name)}"}
+    doc = {"description": f"{PARAMETERS[name].doc}; {allowed_values(name)}"}
     if name in STR_PARAMS:
         return {**doc, "type": "string", "enum": list(STR_PARAMS[name])}
     lo, hi = PARAMETERS[name].range

@@ -14,7 +14,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from fcsweep.config.errors import ConfigError
-from fcsweep.config.params import _canon_value, _check_param
+from fcsweep.config.params import canon_value, check_param
 from fcsweep.model.parameters import DEFAULTS, ID_OMITS_DEFAULT
 
 #: Model parameters and their defaults (:data:`fcsweep.model.parameters.PARAMETERS`); ``None`` means "must be given".
@@ -312,7 +312,7 @@ def run_id_of(params: Mapping[str, Any], replicate: int) -> str:
     is every parameter declared ``id_omits_default`` (``integrator``, ``initial``) when it
     has its default value (ids from before the key existed hold).
     """
-    canon = {k: _canon_value(k, v) for k, v in params.items()
+    canon = {k: canon_value(k, v) for k, v in params.items()
              if k != "seed" and not (k in ID_OMITS_DEFAULT and v == ID_OMITS_DEFAULT[k])}
     blob = json.dumps({"params": canon, "replicate": int(replicate)}, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(blob.encode()).hexdigest()[:12]
@@ -333,12 +333,12 @@ def _expand(cfg: SweepConfig) -> list[RunSpec]:
                 f"{cfg.output}/refinement.json point {k} has parameters {sorted(point)} but the grid sweeps "
                 f"{sorted(names)}; refined points belong to the grid they were made for (move the file away "
                 "to use this config with this output directory)")
-        points.append(tuple(_check_param(n, point[n], "refinement") for n in names))
+        points.append(tuple(check_param(n, point[n], "refinement") for n in names))
     specs = []
     index = 0
     seen = set()
     for combo in itertools.chain(itertools.product(*(cfg.grid[n] for n in names)), points):
-        key = tuple(_canon_value(n, v) for n, v in zip(names, combo))
+        key = tuple(canon_value(n, v) for n, v in zip(names, combo))
         if key in seen:
             continue
         seen.add(key)

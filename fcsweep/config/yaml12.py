@@ -10,7 +10,7 @@ from typing import Mapping
 
 import yaml
 
-from fcsweep.config.errors import ConfigError, _show
+from fcsweep.config.errors import ConfigError, show_value
 
 #: A sweep file is at most this large (bytes) ...
 MAX_CONFIG_BYTES = 1 << 20
@@ -20,7 +20,7 @@ MAX_NESTING = 16
 MAX_VALUES = 200_000
 
 
-class _UniqueKeyLoader(yaml.SafeLoader):
+class UniqueKeyLoader(yaml.SafeLoader):
     """SafeLoader that rejects duplicate mapping keys instead of keeping the last."""
 
 
@@ -38,7 +38,7 @@ def _construct_mapping(loader, node, deep=False):
             ) from None
         if key in seen:
             raise ConfigError(
-                f"duplicate key {_show(key)} (line {key_node.start_mark.line + 1}); "
+                f"duplicate key {show_value(key)} (line {key_node.start_mark.line + 1}); "
                 "each key may appear once per section"
             )
         seen.add(key)
@@ -52,7 +52,7 @@ def _source_text(node) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-_UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
+UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
 
 
 def _construct_int(loader, node):
@@ -74,8 +74,8 @@ _DIGITS = r"[0-9](?:_?[0-9])*"
 _EXPONENT_FLOAT = re.compile(
     rf"^[-+]?(?:{_DIGITS}(?:\.(?:{_DIGITS})?)?|\.{_DIGITS})[eE][-+]?{_DIGITS}$")
 _OCTAL_12 = re.compile(r"^[-+]?0o[0-7](?:_?[0-7])*$")
-_UniqueKeyLoader.add_implicit_resolver("tag:yaml.org,2002:float", _EXPONENT_FLOAT, list("-+.0123456789"))
-_UniqueKeyLoader.add_implicit_resolver("tag:yaml.org,2002:int", _OCTAL_12, list("-+0"))
+UniqueKeyLoader.add_implicit_resolver("tag:yaml.org,2002:float", _EXPONENT_FLOAT, list("-+.0123456789"))
+UniqueKeyLoader.add_implicit_resolver("tag:yaml.org,2002:int", _OCTAL_12, list("-+0"))
 
 
 def _construct_int_12(loader, node):
@@ -91,10 +91,10 @@ def _construct_int_12(loader, node):
     return _construct_int(loader, node)
 
 
-_UniqueKeyLoader.add_constructor("tag:yaml.org,2002:int", _construct_int_12)
+UniqueKeyLoader.add_constructor("tag:yaml.org,2002:int", _construct_int_12)
 
 
-def _read_text(path: Path) -> str:
+def read_text(path: Path) -> str:
     """The text of a sweep file: a regular file of at most MAX_CONFIG_BYTES of UTF-8."""
     try:
         st = path.stat()
@@ -118,7 +118,7 @@ def _read_text(path: Path) -> str:
                           f"(offset {exc.start}); save the file as UTF-8") from None
 
 
-def _check_structure(data) -> None:
+def check_structure(data) -> None:
     """Refuse YAML whose values nest too deeply, expand (through aliases) to too many
     values, or contain themselves -- before anything walks or prints them."""
     sizes: dict[int, int] = {}

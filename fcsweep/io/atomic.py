@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Callable
 
 from fcsweep.io import failures
+from fcsweep.io.faults import faults
 
 __all__ = ["atomic_write", "fsync_dir"]
 
@@ -72,7 +73,7 @@ def atomic_write(path, writer: Callable[[Path], None], *, fsync: bool = False,
     with held:
         _write_and_rename(path, tmp, writer, fsync, before_replace)
     failures.count_write()
-    failures.kill_point(path, "after-rename")
+    faults().kill("after-rename", path)
     if fsync:
         fsync_dir(path.parent)
     return path
@@ -82,8 +83,9 @@ def _write_and_rename(path: Path, tmp: Path, writer, fsync: bool, before_replace
     try:
         try:
             writer(tmp)
-            failures.injected_error(path)
-            failures.kill_point(path, "written")
+            made = faults()
+            made.write_error(path)
+            made.kill("written", path)
             if fsync:
                 fd = os.open(tmp, os.O_RDONLY)
                 try:
@@ -92,7 +94,7 @@ def _write_and_rename(path: Path, tmp: Path, writer, fsync: bool, before_replace
                     os.close(fd)
             if before_replace is not None:
                 before_replace(tmp)
-            failures.kill_point(path, "before-rename")
+            made.kill("before-rename", path)
             os.replace(tmp, path)
         except BaseException as exc:
             why = failures.classify(exc, path, free_at=tmp)

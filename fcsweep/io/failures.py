@@ -18,15 +18,8 @@ short writes, which finish and are renamed first; :func:`run_main` gives the sam
 codes to a signal that comes while a command loads.  SIGKILL leaves at most one temporary
 file per writer, which :func:`remove_stale` removes on the next command.
 
-Test hooks (environment variables, inherited by ``-j`` worker processes):
-
-``FCSWEEP_TEST_KILL_AT=<file>:<point>[:K]``
-    SIGKILL the process the K-th time (default 1st) it reaches ``point`` of an atomic write
-    of a file named ``<file>`` (a glob): ``written`` (temporary file complete, not yet
-    fsynced), ``before-rename``, ``after-rename`` (before the directory fsync).
-``FCSWEEP_TEST_WRITE_ERROR=<file>:<ERRNO>``
-    The atomic write of a file named ``<file>`` (a glob) fails with ``ERRNO`` (``ENOSPC``,
-    ``EDQUOT``, ``EROFS``, ``EACCES``) after its temporary file was created.
+The faults that tests make on purpose (kills at the points of a write, injected errors) are
+:mod:`fcsweep.io.faults`.
 """
 
 from __future__ import annotations
@@ -41,7 +34,9 @@ import threading
 from contextlib import contextmanager
 from pathlib import Path
 
-__all__ = ["WriteFailure", "classify", "kill_point", "injected_error", "remove_stale", "advice",
+from fcsweep.io.faults import faults
+
+__all__ = ["WriteFailure", "classify", "remove_stale", "advice",
            "ENVIRONMENT_ERRNOS", "LOW_SPACE", "written_count", "count_write", "Terminated", "sigterm_raises",
            "probe_writable", "results_command", "signals_held", "run_main"]
 
@@ -107,36 +102,6 @@ def classify(exc: BaseException, path, free_at=None) -> WriteFailure | None:
     if code is None:
         return None
     return WriteFailure(code, ENVIRONMENT_ERRNOS[code], str(path))
-
-
-def _matches(path: Path, pattern: str) -> bool:
-    return fnmatch.fnmatch(Path(path).name, pattern)
-
-
-def kill_point(path, point: str, _counts: dict = {}) -> None:  # noqa: B006 - per-process counter
-    """SIGKILL this process at ``point`` of the atomic write of ``path`` when
-    ``FCSWEEP_TEST_KILL_AT`` asks for it (module docstring)."""
-    spec = os.environ.get("FCSWEEP_TEST_KILL_AT", "")
-    parts = spec.split(":")
-    if len(parts) < 2 or parts[-1].isdigit() and len(parts) < 3:
-        return
-    k = int(parts.pop()) if parts[-1].isdigit() else 1
-    pattern, want = ":".join(parts[:-1]), parts[-1]
-    if want != point or not _matches(path, pattern):
-        return
-    key = (pattern, point)
-    _counts[key] = _counts.get(key, 0) + 1
-    if _counts[key] == k:
-        os.kill(os.getpid(), signal.SIGKILL)
-
-
-def injected_error(path) -> None:
-    """Raise the ``OSError`` that ``FCSWEEP_TEST_WRITE_ERROR`` asks for at ``path``."""
-    spec = os.environ.get("FCSWEEP_TEST_WRITE_ERROR", "")
-    pattern, _, name = spec.rpartition(":")
-    if pattern and _matches(path, pattern) and hasattr(_errno, name):
-        code = getattr(_errno, name)
-        raise OSError(code, os.strerror(code), str(path))
 
 
 def count_write() -> None:
@@ -232,7 +197,7 @@ def probe_writable(directory) -> None:
     d = Path(directory)
     probe = d / f".fcsweep-write-probe.{os.getpid()}.tmp"
     try:
-        injected_error(probe)
+        faults().write_error(probe)
         probe.touch()
         probe.unlink()
     except OSError as exc:  # another errno (the directory is gone): the command reports that itself

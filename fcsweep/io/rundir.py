@@ -289,7 +289,7 @@ class RunDirectory:
 
     def mark_failed(self, reason: str, cause: str, **fields: Any) -> bool:
         """Failed; ``cause`` is ``schema.CAUSE_IO`` (retried by the next launch) or
-        ``schema.CAUSE_SIMULATION`` / ``CAUSE_CONFLICT`` (not retried without
+        ``schema.CAUSE_SIMULATION`` (not retried without
         ``--retry-failed``).  ``stop_reason`` becomes "failed"; steps done and cost are kept.
         Best effort."""
         prev = self.status()

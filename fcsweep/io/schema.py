@@ -50,7 +50,7 @@ STATUSES = (DONE, FAILED, RUNNING, PENDING, INTERRUPTED, CORRUPT)
 COST_KEYS = ("wall_seconds", "cpu_seconds", "check_cpu_seconds", "cell_steps", "cell_steps_computed")
 
 #: ``status.json`` key ``cause`` of a failed run.
-CAUSE_SIMULATION, CAUSE_IO, CAUSE_CONFLICT = "simulation", "io", "conflict"
+CAUSE_SIMULATION, CAUSE_IO = "simulation", "io"
 
 #: H5MD units module: the unit system and the unit strings (H5MD grammar: space-separated
 #: factors, each a symbol of letters with an optional signed integer power, so "R0" would

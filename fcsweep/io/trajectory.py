@@ -9,7 +9,6 @@ is read up to the frames its last checkpoint covers (see :func:`open_trajectory`
 
 from __future__ import annotations
 
-import json
 import time as _time
 from dataclasses import dataclass
 from pathlib import Path
@@ -249,11 +248,3 @@ def _open_live(partial: Path) -> Trajectory:
             raise
         return Trajectory(partial, *meta, live=True, _inode=inode)
     raise TrajectoryError(f"{partial}: no trajectory file")
-
-
-def config_json(params: dict) -> dict:
-    """The sweep config recorded in ``/parameters`` (``config_json``), or {}."""
-    try:
-        return json.loads(params.get("config_json", "{}"))
-    except (TypeError, ValueError):
-        return {}

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from fcsweep.analysis.phase import (MIN_CONFIDENCE, PERCOLATION_FLAGS, PHASE_FLAGS, PHASE_FLUID, PHASE_SOFT_FLUID,
-                                    PHASE_UNDETERMINED, PHASE_UNKNOWN, Label, _p_above, classify_percolation,
+                                    PHASE_UNDETERMINED, PHASE_UNKNOWN, Label, p_above, classify_percolation,
                                     classify_phase, flag_attrs)
 from fcsweep.model.shape import Q_STAR
 
@@ -61,7 +61,7 @@ def _fluid_from_q(q, q_err, p_broken, min_confidence) -> Label:
     why = f"cages broken (P = {p_broken:.3f}), D_eff unknown (no --v0, --Dr)"
     if not (np.isfinite(q) and np.isfinite(q_err)):
         return Label(PHASE_UNDETERMINED, float("nan"), f"{why}; <q> has no error", "no_error")
-    p = _p_above(float(q), float(q_err), Q_STAR) * p_broken
+    p = p_above(float(q), float(q_err), Q_STAR) * p_broken
     conf = max(p, p_broken - p)
     if conf < min_confidence:
         return Label(PHASE_UNDETERMINED, conf, f"{why}; <q> too close to {Q_STAR}", "near_q_star")

@@ -43,7 +43,8 @@ import numpy as np
 from .shape import a0_of, radius
 
 __all__ = ["BOUNDARIES", "WALL_CODES", "Confinement", "confinement_of", "boundary_problem", "wall_gap",
-           "wall_weights", "wall_rates", "wall_forces", "wall_pressure", "wall_overlap_area", "cell_contours", "confinement_of_params"]
+           "wall_weights", "wall_rates", "wall_forces", "wall_pressure", "wall_overlap_area", "cell_contours",
+           "confinement_of_params"]
 
 #: The boundaries (the ``boundary`` parameter).
 BOUNDARIES = ("periodic", "well", "channel")

@@ -23,7 +23,7 @@ def _images(box):
     return np.array([(sx * Lx, sy * Ly) for sx, sy in itertools.product((-1, 0, 1), repeat=2)])
 
 
-def _cell_radii(N, R0, radii):
+def per_cell_radii(N, R0, radii):
     """Per-cell radii (N,) from ``radii`` or the one ``R0``."""
     return np.full(N, float(R0)) if radii is None else np.asarray(radii, dtype=float).reshape(N)
 
@@ -70,7 +70,7 @@ def disc_rates(pos, theta, *, v0, box=None, R0=1.0, core_exponent=1.0, radii=Non
     push with the chord of their lens (:func:`lens_chord`).  No torque.
     """
     N = len(pos)
-    Rc = _cell_radii(N, R0, radii)
+    Rc = per_cell_radii(N, R0, radii)
     dpos = v0 * np.stack([np.cos(theta), np.sin(theta)], axis=-1)
     for i in range(N):
         for j in range(N):

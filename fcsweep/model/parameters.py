@@ -30,7 +30,7 @@ __all__ = ["Parameter", "PARAMETERS", "DEFAULTS", "INT_PARAMS", "STR_PARAMS", "R
            "N_RULE", "MODES_RULE", "CONTOUR_POINTS_RULE"]
 
 #: The initial states a run may start from (the ``initial`` parameter, docs/model.md).
-INITIAL_STATES = ("lattice", "disordered")
+INITIAL_STATES = ("lattice", "disordered", "coexistence")
 
 #: The physical bounds a parameter may have, checked before its range: name -> (test,
 #: how the config error reads it, how SimParams' error reads it).
@@ -159,10 +159,14 @@ PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
               "`quadrature: arc` and `modes` ≥ 2, refused otherwise). Part of the run id only when not `euler`, "
               "so ids of existing sweeps do not change", choices=tuple(INTEGRATORS), unit="", id_omits_default=True),
     Parameter("initial", str, "lattice", "initial state of the run",
-              "initial state: lattice (hexagonal, default) or disordered (isotropic, relaxed)", "initial state",
+              "initial state: lattice (hexagonal, default), disordered (isotropic, relaxed) or coexistence (a "
+              "lattice slab in half the box, the disordered packing in the rest)", "initial state",
               "`lattice` (the n × n hexagonal lattice, circular cells), `disordered` (random centres in the same "
-              "box, relaxed at v0 = 0: an isotropic start, docs/model.md). Sweep both to bracket a label from "
-              "both sides. Part of the run id only when not `lattice`, so ids of existing sweeps do not change",
+              "box, relaxed at v0 = 0: an isotropic start, docs/model.md), `coexistence` (half the box's rows on "
+              "the lattice, the other half the disordered packing, two flat interfaces; N ≥ 64). Sweep "
+              "`lattice` and `disordered` to bracket a label from both sides; the coexistence start decides it "
+              "from the crystal's growth. Part of the run id only when not `lattice`, so ids of existing sweeps "
+              "do not change",
               choices=INITIAL_STATES, unit="", id_omits_default=True),
     Parameter("adhesion", float, 0.0, "adhesion strength gamma (energy per adhered contour length)",
               "adhesion strength: energy per contour length within adhesion_range of another cell (0: off)",

@@ -23,7 +23,7 @@ import warnings
 
 import numpy as np
 
-from .discs import _cell_radii, core_factor, disc_rates
+from .discs import per_cell_radii, core_factor, disc_rates
 from .shape import a0_of, amplitude_sum, mode_numbers, radius
 
 #: Quadrature rules for the overlap weights.
@@ -113,7 +113,7 @@ def occupancy(pos, theta, a, b, *, box=None, R0=1.0, contour_points=40, quadratu
     b = np.asarray(b, dtype=float).reshape(len(pos), -1)
     N, K = len(pos), int(contour_points)
     phi = 2.0 * np.pi * np.arange(K) / K
-    Rc = _cell_radii(N, R0, radii)
+    Rc = per_cell_radii(N, R0, radii)
     R, _ = radius(phi, a, b, R0 if radii is None else Rc[:, None])
     lab = theta[:, None] + phi[None, :]
     pts = np.stack([R * np.cos(lab), R * np.sin(lab)], axis=-1)  # (N, K, 2) relative to r_i
@@ -361,7 +361,7 @@ def arc_integrals(pos, theta, a, b, *, box=None, R0=1.0, contour_points=40, core
     h = 2.0 * np.pi / K
     eps = DIP_MARGIN * R0 * (40.0 / K) ** 4
     phi = h * np.arange(K + 1)
-    Rc = _cell_radii(N, R0, radii)
+    Rc = per_cell_radii(N, R0, radii)
     Rb = Rc * (a0_of(a, b) + amplitude_sum(a, b))
     out = np.zeros((N, 4 + 2 * M1))
     nodes = 0.5 + np.array([-0.5, 0.5]) / np.sqrt(3.0)

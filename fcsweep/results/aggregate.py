@@ -51,8 +51,8 @@ from fcsweep.model.observables import CURVES, LABELS, REASON_CODES, REASONS, RUN
 from fcsweep.results.analyze import ANALYSIS_ERROR_FILE, ANALYSIS_FILE, DATASET_FILE, config_settings, read_analysis
 # the reductions' names stay importable from here (where they were before fcsweep.results.reduce)
 from fcsweep.results.reduce import (FSS_SHUFFLED_VARS, FSS_VARS, LABEL_FLAGS, META, POINT_INPUTS,  # noqa: F401
-                                    REPLICATE_VARS, STATUS_CODES, STATUS_FLAGS, STATUS_WORDS, _fisher_exponents, _fss,
-                                    _kthny_common, _point_labels, attrs_of, flag_attrs, reduce_dataset,
+                                    REPLICATE_VARS, STATUS_CODES, STATUS_FLAGS, STATUS_WORDS, fisher_exponents,
+                                    fss_collapses, kthny_common, add_point_labels, attrs_of, flag_attrs, reduce_dataset,
                                     replicate_error_check)
 
 CORE_DIMS = ("eta", "v0", "N")

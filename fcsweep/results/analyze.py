@@ -56,8 +56,7 @@ import h5py
 import numpy as np
 
 from fcsweep import __version__
-from fcsweep.analysis.phase import (MIN_CONFIDENCE, RHO_D_PERCOLATION, cage_evidence, phase_evidence,  # noqa: F401
-                                    phase_label, phase_name, solid_test_estimate)
+from fcsweep.analysis.phase import MIN_CONFIDENCE, RHO_D_PERCOLATION, phase_name
 from fcsweep.analysis.reasons import reason_flags
 from fcsweep.analysis import run_observables
 from fcsweep.analysis.frames import FrameSource
@@ -70,7 +69,7 @@ from fcsweep.io.machine import worker_layout
 from fcsweep.io.rundir import analysis_is_current
 from fcsweep.io.sweepdir import atomic_write, run_path, run_state
 from fcsweep.io.trajectory import TrajectoryError, open_trajectory
-from fcsweep.model.observables import CURVES, KTHNY_FITS, LABELS, REASON_CODES, REASONS, RUN_SCALARS
+from fcsweep.model.observables import CURVES, LABELS, REASON_CODES, REASONS, RUN_SCALARS
 
 __all__ = ["ANALYSIS_FILE", "ANALYSIS_ERROR_FILE", "DATASET_FILE", "DEFAULT_SETTINGS", "DEFAULT_TRANSIENT",
            "OPTIONAL_SETTINGS",
@@ -228,15 +227,6 @@ def trajectory_observables(traj, settings: dict, *, curves: bool = True,
     return run_observables.compute_observables(read_run_frames(traj, settings), settings, curves=curves, psi6=psi6)
 
 
-# The names ``fcsweep.analysis.pipeline`` had before the analysis stopped opening files: that
-# path is an alias of this module (fcsweep/_moved.py), so they keep importing from it.
-# ``compute_observables`` there took an opened trajectory: it is trajectory_observables; the
-# phase rule's inputs (cage_evidence, solid_test_estimate, ...) are imported above.
-compute_observables = trajectory_observables
-_frame_mean = run_observables.frame_mean
-KTHNY_SCALARS = run_observables.KTHNY_SCALARS
-KTHNY_FIT_KEYS = KTHNY_FITS
-equilibrated_frames = run_observables.equilibrated_frames
 
 
 # ------------------------------------------------------------------ one run: files

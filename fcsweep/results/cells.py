@@ -255,20 +255,20 @@ def iter_frames(traj: Trajectory, frames, *, defects: bool = True):
             yield _frame_of(traj, int(k), pos[r], img[r], theta[r], a[r], b[r], defects, radii, conf)
 
 
-def _contour_points(traj: Trajectory) -> int:
+def traj_contour_points(traj: Trajectory) -> int:
     try:
         return int(traj.params.get("contour_points", DEFAULT_CONTOUR_POINTS))
     except (TypeError, ValueError):
         return DEFAULT_CONTOUR_POINTS
 
 
-def _progress(total, desc, progress):
+def progress_bar(total, desc, progress):
     from tqdm.auto import tqdm
 
     return tqdm(total=total, desc=desc, unit="frame", disable=not progress)
 
 
-def _open(traj_path) -> Trajectory:
+def open_nonempty(traj_path) -> Trajectory:
     traj = open_trajectory(traj_path)
     if traj.n_frames == 0:
         raise TrajectoryError(f"{traj.path}: no frames to export")

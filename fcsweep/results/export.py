@@ -44,8 +44,8 @@ import numpy as np
 
 from fcsweep.io.failures import remove_stale
 from fcsweep.io.sweepdir import atomic_write
-from fcsweep.results.cells import (BLOCK_BYTES, DEFAULT_CONTOUR_POINTS, FORMATS, CellFrame, _contour_points,  # noqa: F401
-                                   _open, _progress, cell_contours, cluster_ids, iter_frames, parse_frames)
+from fcsweep.results.cells import (BLOCK_BYTES, DEFAULT_CONTOUR_POINTS, FORMATS, CellFrame, traj_contour_points,  # noqa: F401
+                                   open_nonempty, progress_bar, cell_contours, cluster_ids, iter_frames, parse_frames)
 from fcsweep.results.vtk import export_vtk, periodic_copies, polydata_xml  # noqa: F401
 
 
@@ -114,7 +114,7 @@ def export_gsd(traj_path, out, *, frames=None, unwrapped: bool = False, polygons
         import gsd.hoomd
     except ImportError as exc:
         raise ImportError("GSD export needs the gsd package: pip install gsd") from exc
-    traj = _open(traj_path)
+    traj = open_nonempty(traj_path)
     idx = parse_frames(frames, traj.n_frames)
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -122,12 +122,12 @@ def export_gsd(traj_path, out, *, frames=None, unwrapped: bool = False, polygons
     half = box / 2.0
     R0 = float(traj.params.get("R0", 1.0))
     radii = traj.radii  # per-cell radii when sizes differ
-    K = _contour_points(traj)
+    K = traj_contour_points(traj)
     N = traj.n_cells
     remove_stale(out.parent, (out.name,))
 
     def write(tmp: Path) -> None:
-        with gsd.hoomd.open(str(tmp), "w") as f, _progress(idx.size, "export gsd", progress) as bar:
+        with gsd.hoomd.open(str(tmp), "w") as f, progress_bar(idx.size, "export gsd", progress) as bar:
             for n, cf in enumerate(iter_frames(traj, idx, defects=defects)):
                 fr = gsd.hoomd.Frame()
                 fr.configuration.step = cf.step

@@ -73,12 +73,12 @@ def reduce_dataset(ds: xr.Dataset, settings) -> None:
         ds[f"{v}_rchi2"] = (dims, out[..., 2], {
             "long_name": f"reduced chi-square of the replicates of {v} about their mean (~1: honest errors)",
             "units": "1"})
-    _point_labels(ds, conf, float((settings or {}).get("percolation_threshold", RHO_D_PERCOLATION)))
-    _fisher_exponents(ds)
-    _fss(ds)
+    add_point_labels(ds, conf, float((settings or {}).get("percolation_threshold", RHO_D_PERCOLATION)))
+    fisher_exponents(ds)
+    fss_collapses(ds)
 
 
-def _point_labels(ds: xr.Dataset, conf: float, threshold: float) -> None:
+def add_point_labels(ds: xr.Dataset, conf: float, threshold: float) -> None:
     """Point labels (in place): the phase rule on each point's replicate-combined evidence
     (:func:`fcsweep.analysis.points.point_labels`), the KTHNY label common to the
     replicates; with an ``initial`` dimension these are the per-start labels
@@ -98,7 +98,7 @@ def _point_labels(ds: xr.Dataset, conf: float, threshold: float) -> None:
         out["phase"][idx], cf["phase"][idx] = ph.code, ph.confidence
         out["percolated"][idx], cf["percolated"][idx] = pc.code, pc.confidence
         why["phase"][idx], why["percolated"][idx] = reason_value(ph.reason_code), reason_value(pc.reason_code)
-    out["kthny"], cf["kthny"] = _kthny_common(ds)
+    out["kthny"], cf["kthny"] = kthny_common(ds)
     why["kthny"] = common_reason(out["kthny"], ds["kthny"].transpose(..., "replicate").values,
                                  ds.get("kthny_reason_code", 0 * ds["kthny"]).transpose(..., "replicate").values,
                                  DECIDED["kthny"][0],
@@ -130,7 +130,7 @@ def _point_labels(ds: xr.Dataset, conf: float, threshold: float) -> None:
             ds["phase_hysteresis"] = (pdims, hyst, {**attrs_of("phase_hysteresis"), **flag_attrs(HYSTERESIS_FLAGS)})
 
 
-def _kthny_common(ds: xr.Dataset):
+def kthny_common(ds: xr.Dataset):
     """The replicates' common KTHNY label, its lowest confidence, or undetermined when
     they differ or one is undetermined."""
     k = ds["kthny"].transpose(..., "replicate").values
@@ -141,7 +141,7 @@ def _kthny_common(ds: xr.Dataset):
     return point, np.where(np.isinf(conf), np.nan, conf)
 
 
-def _fisher_exponents(ds: xr.Dataset) -> None:
+def fisher_exponents(ds: xr.Dataset) -> None:
     """``tau_fisher``, its error and reason per point from the pooled cluster sizes (in place)."""
     counts = ds["cluster_size_distribution"].fillna(0).sum("replicate")
     dims = list(counts.dims[:-1])
@@ -173,7 +173,7 @@ FSS_VARS = group("fss")
 FSS_SHUFFLED_VARS = group("fss_shuffled")
 
 
-def _fss(ds: xr.Dataset, n_bootstrap: int = FSS_BOOTSTRAP) -> None:
+def fss_collapses(ds: xr.Dataset, n_bootstrap: int = FSS_BOOTSTRAP) -> None:
     """Finite-size collapses of the largest defect cluster, one per v0 (in place).
 
     Only for datasets with two or more N.  Each slice of the dimensions other than
@@ -195,7 +195,7 @@ def _fss(ds: xr.Dataset, n_bootstrap: int = FSS_BOOTSTRAP) -> None:
 
 
 def _collapse_per_slice(ds: xr.Dataset, stat: str, names: tuple, n_bootstrap: int) -> None:
-    """:func:`_fss` for the replicate means of one largest-cluster statistic ``stat``; the
+    """:func:`fss_collapses` for the replicate means of one largest-cluster statistic ``stat``; the
     variables ``names`` (in the order of :data:`FSS_VARS`) and ``<prefix>_reason``."""
     if f"{stat}_rmean" not in ds:  # a dataset assembled without the statistic
         return

@@ -13,8 +13,8 @@ import numpy as np
 
 from fcsweep.io.failures import remove_stale
 from fcsweep.io.sweepdir import atomic_write
-from fcsweep.results.cells import (_contour_points, _open, _progress, cell_contours, iter_frames, parse_frames,
-                                   run_confinement_of)
+from fcsweep.results.cells import (cell_contours, iter_frames, open_nonempty, parse_frames, progress_bar,
+                                   run_confinement_of, traj_contour_points)
 
 _VTK_TYPES = {"Float64": np.float64, "Int64": np.int64, "UInt8": np.uint8}
 
@@ -158,16 +158,16 @@ def export_vtk(traj_path, out_dir, *, frames=None, unwrapped: bool = False, imag
     Path
         The ``.pvd`` collection.
     """
-    traj = _open(traj_path)
+    traj = open_nonempty(traj_path)
     idx = parse_frames(frames, traj.n_frames)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     remove_stale(out_dir, (f"{stem}*",))
     box = np.asarray(traj.box, dtype=float)
     R0 = float(traj.params.get("R0", 1.0)) if traj.radii is None else traj.radii  # per-cell radii if sizes differ
-    K = _contour_points(traj)
+    K = traj_contour_points(traj)
     entries = []
-    with _progress(idx.size, "export vtk", progress) as bar:
+    with progress_bar(idx.size, "export vtk", progress) as bar:
         for cf in iter_frames(traj, idx, defects=defects):
             centre = cf.unwrapped(box) if unwrapped else cf.position
             contours = cell_contours(centre, cf.theta, cf.a, cf.b, R0, K)

@@ -9,8 +9,8 @@ The sweep runner (:func:`fcsweep.sweep.runner.run_one`) acts on it, and the dry 
 
 Actions, in the order they are decided::
 
-    ``failed``   failed for a reason a relaunch does not fix (cause "simulation" or
-                 "conflict"); rerun only with ``--retry-failed`` (or ``--force``).  A failure
+    ``failed``   failed for a reason a relaunch does not fix (cause "simulation");
+                 rerun only with ``--retry-failed`` (or ``--force``).  A failure
                  with cause "io" (full disk, quota...) resumes by itself.
     ``skip``     done, with these physics, long enough, trajectory sound.
     ``blocked``  done, or checkpointed, with other run settings: ``--force`` recomputes it.

@@ -45,18 +45,8 @@ Faults, each handled once in :func:`run_one`:
 - a done run whose trajectory is damaged (checksums, truncation) is marked ``corrupt``
   and computed again (bit for bit the same, runs are deterministic).
 
-Testing hooks (environment variables, read at run time; in :mod:`fcsweep.sweep.writer`):
-
-``FCSWEEP_FAIL_RUN_IDS``
-    Comma-separated run ids that raise an injected ``RuntimeError`` after their first
-    frame (failed-run isolation tests).
-``FCSWEEP_TEST_KILL_AT``
-    ``POINT:K`` -- the process SIGKILLs itself the K-th time it reaches POINT, one of
-    ``frame`` (a frame was sampled), ``h5-append`` (datasets grown, data not yet written),
-    ``checkpoint-write`` (temporary checkpoint written, not yet renamed), ``checkpoint``
-    (checkpoint in place), ``finalize`` (trajectory renamed, status not yet written).
-``FCSWEEP_TEST_SLOW``
-    Seconds to sleep after each frame, so that tests can signal a run mid-way.
+The faults that tests make on purpose (kills at the points above, injected failures, a
+slowed run) are :mod:`fcsweep.io.faults`.
 """
 
 from __future__ import annotations
@@ -69,6 +59,7 @@ from typing import Callable
 
 from fcsweep.config import RunSpec, SweepConfig
 from fcsweep.io import schema
+from fcsweep.io.faults import faults
 from fcsweep.io.checkpoint import load_checkpoint, split_meta
 from fcsweep.io.h5md import append_frames, frame_count, read_parameters, truncate_frames, verify_trajectory
 from fcsweep.io.locks import DEFAULT_STALE_AFTER, LockLost
@@ -79,9 +70,6 @@ from fcsweep.sweep.lifecycle import assess, conflict_message, extension_blocker,
 from fcsweep.sweep.writer import (
     SPACE_MARGIN,
     RunWriter,
-    _hook,
-    _injected_failure,
-    _slow,
     fields_for,
     new_trajectory,
 )
@@ -394,9 +382,10 @@ def _integrate(cfg, spec, w: RunWriter, progress, stop) -> str:
     sim = w.sim
     steps, se, ce = cfg.run.steps, cfg.run.sample_every, cfg.run.checkpoint_every
     last_status = time.time()
-    checked_failure = False
     stop_reason = STOP_SETTLED if w.settle(int(sim.state.step)) else STOP_STEPS
     pace = _Pace(min(se, 64))
+    made = faults()  # the faults a test asked for (fcsweep.io.faults); inactive in production
+    first_frame = True
     while stop_reason != STOP_SETTLED and sim.state.step < steps:
         target = min(steps, (int(sim.state.step) // se + 1) * se)
         while sim.state.step < target:
@@ -410,12 +399,12 @@ def _integrate(cfg, spec, w: RunWriter, progress, stop) -> str:
                     w.sample()
                 w.stop_at(int(sim.state.step))
                 raise Interrupted(why, int(sim.state.step))
-        if not checked_failure:
-            checked_failure = True
-            _injected_failure(spec.run_id)
+        if made.active and first_frame:
+            made.fail_run(spec.run_id)
+        first_frame = False
         w.sample()
-        _hook("frame")
-        _slow()
+        if made.active:
+            made.after_frame()
         step = int(sim.state.step)
         if step % ce == 0 or step >= steps:
             w.commit()

@@ -5,16 +5,15 @@ integrates -- the frames buffered since the last append, the number already comm
 ``trajectory.h5.partial``, the run's cost and the last ``run.until`` verdict -- and
 decides the order of the writes (frames before the checkpoint that counts them, the
 checkpoint before the status that cites it).  The moves of the files themselves belong to
-:class:`fcsweep.io.rundir.RunDirectory`.  The test hooks that the runner's docstring lists
-(``FCSWEEP_TEST_KILL_AT`` and friends) live here, beside the writes they interrupt.
+:class:`fcsweep.io.rundir.RunDirectory`.  The kills that tests ask for at
+its points (``h5-append``, ``checkpoint-write``, ``checkpoint``, ``finalize``) are
+:mod:`fcsweep.io.faults`.
 """
 
 from __future__ import annotations
 
 import functools
 import json
-import os
-import signal
 import socket
 import time
 from pathlib import Path
@@ -24,6 +23,7 @@ import numpy as np
 
 from fcsweep.config import RunSpec, SweepConfig
 from fcsweep.io import schema
+from fcsweep.io.faults import faults
 from fcsweep.io.h5md import append_frames, create_trajectory, set_attrs
 from fcsweep.io.rundir import RunDirectory, ensure_free_space, now_iso
 
@@ -31,36 +31,6 @@ __all__ = ["RunWriter", "new_trajectory", "snapshot", "fields_for", "SPACE_MARGI
 
 #: Bytes kept free beyond every write (HDF5 metadata, status files).
 SPACE_MARGIN = 4 << 20
-
-# ------------------------------------------------------------------------- test hooks
-
-_kill_counts: dict[str, int] = {}
-
-
-def _hook(point: str) -> None:
-    """SIGKILL this process the K-th time it reaches ``point`` (``FCSWEEP_TEST_KILL_AT=POINT:K``)."""
-    spec = os.environ.get("FCSWEEP_TEST_KILL_AT")
-    if not spec:
-        return
-    name, _, k = spec.partition(":")
-    if name != point:
-        return
-    _kill_counts[point] = _kill_counts.get(point, 0) + 1
-    if _kill_counts[point] == int(k or 1):
-        os.kill(os.getpid(), signal.SIGKILL)
-
-
-def _slow() -> None:
-    delay = os.environ.get("FCSWEEP_TEST_SLOW")
-    if delay:
-        time.sleep(float(delay))
-
-
-def _injected_failure(run_id: str) -> None:
-    ids = os.environ.get("FCSWEEP_FAIL_RUN_IDS", "")
-    if run_id in {s.strip() for s in ids.split(",") if s.strip()}:
-        raise RuntimeError(f"injected failure for run {run_id} (FCSWEEP_FAIL_RUN_IDS)")
-
 
 # ------------------------------------------------------------------ what gets written
 
@@ -271,7 +241,7 @@ class RunWriter:
         ensure_free_space(self.rd.partial, self.buffer_bytes + SPACE_MARGIN,
                           f"appending {len(self.buffer)} frame(s)")
         self.written = self._append(self.rd.partial, self.buffer, expected_start=self.written,
-                                    after_resize=lambda: _hook("h5-append"))
+                                    after_resize=lambda: faults().kill("h5-append"))
         self.buffer, self.buffer_bytes = [], 0
 
     def checkpoint(self, step: int) -> None:
@@ -282,8 +252,8 @@ class RunWriter:
         ensure_free_space(self.rd.checkpoint, need, "the checkpoint")
         self.rd.save_checkpoint(state, {"frames": self.written, "fingerprint": self.fingerprint,
                                         "run_id": self.spec.run_id, "step": step},
-                                before_replace=lambda _tmp: _hook("checkpoint-write"))
-        _hook("checkpoint")
+                                before_replace=lambda _tmp: faults().kill("checkpoint-write"))
+        faults().kill("checkpoint")
         self.record(step)
 
     def stop_at(self, step: int) -> None:
@@ -321,7 +291,7 @@ class RunWriter:
             "config_json": json.dumps(cfg.to_dict(), sort_keys=True)})
         ensure_free_space(self.rd.path, partial.stat().st_size + SPACE_MARGIN, "repacking the finished trajectory")
         self.rd.promote_partial()
-        _hook("finalize")
+        faults().kill("finalize")
         self.rd.mark_done(reason=self.reason, steps_done=done, projections=projections, stop_reason=stop_reason,
                           **self.costs(done), **({"check": self.last_check} if self.last_check else {}))
         return done
