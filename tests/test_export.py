@@ -189,8 +189,19 @@ def test_gsd_polygons_are_the_cell_contours(run, exported):
 
 # ------------------------------------------------------------------ the real viewers
 
+def viewer(module: str):
+    """The viewer's module, or a skip that says why its import failed (the `viewers`
+    extra is not part of `test`: ``pip install 'fcsweep[viewers]'``)."""
+    import importlib
+
+    try:
+        return importlib.import_module(module)
+    except ImportError as exc:  # not installed, or installed without a usable library
+        pytest.skip(f"import {module} failed ({type(exc).__name__}: {exc}); "
+                    "the viewers extra: pip install 'fcsweep[viewers]'")
+
 def test_ovito_loads_the_gsd_with_q_as_a_particle_property(run, exported):
-    ovito_io = pytest.importorskip("ovito.io", reason="the ovito module has no wheel for this Python/platform")
+    ovito_io = viewer("ovito.io")
     _, traj_path, _ = run
     t = open_trajectory(traj_path)
     pipeline = ovito_io.import_file(str(exported["gsd"]))
@@ -209,7 +220,7 @@ def test_ovito_loads_the_gsd_with_q_as_a_particle_property(run, exported):
 def test_ovito_unwraps_with_the_image_counts(run, tmp_path):
     """OVITO's Unwrap trajectories modifier, fed the exported image counts, gives the
     trajectory's unwrapped centroids (image counts made up on a copy of the run)."""
-    ovito_io = pytest.importorskip("ovito.io", reason="the ovito module has no wheel for this Python/platform")
+    ovito_io = viewer("ovito.io")
     from ovito.modifiers import UnwrapTrajectoriesModifier
 
     _, traj_path, _ = run
@@ -227,7 +238,7 @@ def test_ovito_unwraps_with_the_image_counts(run, tmp_path):
 
 
 def test_ovito_renders_the_cell_shapes(exported, tmp_path):
-    pytest.importorskip("ovito.io", reason="the ovito module has no wheel for this Python/platform")
+    viewer("ovito.io")
     from ovito.io import import_file
     from ovito.modifiers import ColorCodingModifier
     from ovito.vis import OpenGLRenderer, Viewport
@@ -254,7 +265,7 @@ def test_ovito_renders_the_cell_shapes(exported, tmp_path):
 
 
 def test_mdanalysis_iterates_every_frame(run, exported):
-    mda = pytest.importorskip("MDAnalysis", reason="MDAnalysis cannot be installed here")
+    mda = viewer("MDAnalysis")
     _, traj_path, _ = run
     t = open_trajectory(traj_path)
     u = mda.Universe(str(exported["gsd"]))
@@ -278,7 +289,7 @@ def _polylines(mesh):
 
 
 def test_vtk_files_hold_one_closed_contour_per_cell(run, exported):
-    pv = pytest.importorskip("pyvista", reason="pyvista/VTK cannot be installed here")
+    pv = viewer("pyvista")
     _, traj_path, _ = run
     t = open_trajectory(traj_path)
     reader = pv.get_reader(str(exported["vtk"]))

@@ -266,7 +266,7 @@ def test_translational_correlation_keeps_negative_values():
 def test_palettes_are_colour_blind_safe():
     okabe = {c.lower() for c in plots.OKABE_ITO.values()}
     assert {plots.PHASE_COLORS[w][0].lower() for w in ("solid", "fluid", "soft_fluid")} <= okabe
-    rgb = plots.common._colors(6)[:, :3]
+    rgb = plots.common.value_colors(6)[:, :3]
     luminance = rgb @ np.array([0.2126, 0.7152, 0.0722])
     assert luminance.max() < 0.8  # viridis stops before its pale yellow end (luminance 0.87)
 

@@ -61,7 +61,7 @@ V0_LABEL = r"self-propulsion $v_0$ [$\mu F$]"
 ETA_SYMBOL, V0_SYMBOL = r"$\eta$ [$F$]", r"$v_0$ [$\mu F$]"
 
 
-def _styled(fn):
+def styled(fn):
     """Draw ``fn``'s figure with :data:`STYLE`."""
     @functools.wraps(fn)
     def wrapper(*args, **kwargs):
@@ -92,7 +92,7 @@ def save_figure(fig, stem, *, dpi: int = 300) -> list[Path]:
     return out
 
 
-def _plane(ds, var, keep, select=None):
+def on_plane(ds, var, keep, select=None):
     """``ds[var]`` averaged over replicates (NaN-aware), other extra dims at ``select`` or
     their last value (largest N), keeping the dims ``keep`` in that order."""
     da = ds[var]
@@ -100,10 +100,10 @@ def _plane(ds, var, keep, select=None):
         da = da.where(da >= 0)
     if "replicate" in da.dims and "replicate" not in keep:
         da = da.mean("replicate", skipna=True) if da.sizes["replicate"] > 1 else da.isel(replicate=0)
-    return _select(da, keep, select)
+    return reduce_to(da, keep, select)
 
 
-def _select(da, keep, select):
+def reduce_to(da, keep, select):
     select = dict(select or {})
     for d in list(da.dims):
         if d in keep:
@@ -115,7 +115,7 @@ def _select(da, keep, select):
     return da.transpose(*keep)
 
 
-def _err(ds, var, keep, select):
+def error_of(ds, var, keep, select):
     """The 1-sigma error of ``var`` (``<var>_err``) on the same plane, or None; replicates
     are combined as the error of their mean."""
     name = f"{var}_err"
@@ -125,10 +125,10 @@ def _err(ds, var, keep, select):
     if "replicate" in da.dims and "replicate" not in keep:
         n = np.isfinite(da).sum("replicate")
         da = np.sqrt((da ** 2).sum("replicate", skipna=True)) / n.where(n > 0)
-    return _select(da, keep, select).values
+    return reduce_to(da, keep, select).values
 
 
-def _flag_words(da, default=None) -> dict[int, str]:
+def flag_words(da, default=None) -> dict[int, str]:
     """Code -> word of a CF flag variable, from its attributes (else ``default``,
     :data:`PHASE_FLAGS` if not given)."""
     vals, words = da.attrs.get("flag_values"), da.attrs.get("flag_meanings")
@@ -137,19 +137,19 @@ def _flag_words(da, default=None) -> dict[int, str]:
     return {int(v): w for v, w in zip(np.atleast_1d(vals), str(words).split())}
 
 
-def _phase_words(ds, keep, select, var="phase", default=None) -> np.ndarray:
+def phase_words(ds, keep, select, var="phase", default=None) -> np.ndarray:
     """Label word of every point of the plane (of ``var``, a CF flag variable);
     replicates, or starts (``initial``), that do not all give the same label are
     ``undetermined`` (the point rule of :mod:`fcsweep.analysis.points`), points without a
     label ``unknown``."""
     da = ds[var]
-    words = _flag_words(da, default)
+    words = flag_words(da, default)
     over = [d for d in ("replicate", "initial") if d in da.dims and d not in keep]
     if over:
         da = da.where(da >= 0)
         lo, hi = da.min(over, skipna=True), da.max(over, skipna=True)
         da = lo.where((lo == hi) | lo.isnull(), -2)  # -2: they disagree; NaN: no label at all
-    codes = _select(da, keep, select).values
+    codes = reduce_to(da, keep, select).values
     out = np.full(codes.shape, "unknown", dtype=object)
     for code, word in words.items():
         out[codes == code] = word
@@ -167,16 +167,16 @@ def _is_log_grid(values) -> bool:
     return np.std(dl) / np.mean(dl) < 0.5 * np.std(dv) / np.mean(dv)
 
 
-def _log_axis(values) -> bool:
+def log_axis(values) -> bool:
     """Log axis for a logarithmic grid, and for positive values whose linear cells
     would reach zero or below (two points a decade apart: eta 0.01 and 0.1)."""
     v = np.asarray(values, dtype=float)
     if _is_log_grid(v):
         return True
-    return v.size >= 2 and bool(np.all(v > 0)) and _edges(v, False)[0] <= 0
+    return v.size >= 2 and bool(np.all(v > 0)) and cell_edges(v, False)[0] <= 0
 
 
-def _edges(values, log: bool) -> np.ndarray:
+def cell_edges(values, log: bool) -> np.ndarray:
     """Cell edges around grid values (geometric midpoints on a log grid)."""
     v = np.asarray(values, dtype=float)
     if log:
@@ -218,7 +218,7 @@ def _run_ends(ds, select) -> np.ndarray:
     if "t_end" not in ds:
         return np.array([])
     da = ds["t_end"]
-    v = _select(da, [d for d in da.dims if d not in (select or {})], select).values.astype(float).ravel()
+    v = reduce_to(da, [d for d in da.dims if d not in (select or {})], select).values.astype(float).ravel()
     return v[np.isfinite(v)]
 
 
@@ -260,15 +260,15 @@ def caption(ds, select=None, width: int | None = None) -> str:
     return textwrap.fill(text, width, break_long_words=False) if width else text
 
 
-def _colors(n):
+def value_colors(n):
     """``n`` ordered colours from viridis, stopping before its pale yellow end."""
     return plt.get_cmap("viridis")(np.linspace(0.0, 0.85, max(n, 1)))
 
 
-def _value_colorbar(fig, axes, values, label):
+def value_colorbar(fig, axes, values, label):
     """A discrete colour bar naming the value of each curve's colour."""
     n = len(values)
-    cmap = ListedColormap(_colors(n))
+    cmap = ListedColormap(value_colors(n))
     sm = plt.cm.ScalarMappable(norm=BoundaryNorm(np.arange(n + 1) - 0.5, n), cmap=cmap)
     cb = fig.colorbar(sm, ax=axes, ticks=np.arange(n), aspect=30, pad=0.02)
     cb.ax.set_yticklabels([_grid_label(v) for v in values])
@@ -276,20 +276,20 @@ def _value_colorbar(fig, axes, values, label):
     return cb
 
 
-def _caption_chars(ax) -> int:
+def caption_chars(ax) -> int:
     """Characters of a caption line (at :data:`CAPTION_SIZE`) that fit over ``ax``."""
     width_pt = ax.get_position().width * ax.figure.get_figwidth() * 72.0
     return max(int(width_pt / (0.55 * CAPTION_SIZE)), 30)
 
 
-def _axes(ax, size):
+def own_axes(ax, size):
     """``(figure, ax)``: the given Axes and its figure, or a new figure of ``size`` inches."""
     if ax is not None:
         return ax.figure, ax
     return plt.subplots(figsize=size)
 
 
-def _panels(n, width=None, height=1.9, sharey=True):
+def panel_axes(n, width=None, height=1.9, sharey=True):
     """A grid of ``n`` panels (at most 3 per row) with shared axes; spare axes removed.
     The figure is one column wide for one panel, two columns for more (``width``: of
     each panel, inches, instead)."""
@@ -309,7 +309,7 @@ def _grid_label(v) -> str:
     return f"{v:.3g}"
 
 
-def _grid_ticks(axis, values, most=None):
+def grid_ticks(axis, values, most=None):
     """Ticks at the grid values of a log axis (decades alone rarely label a 0.01-0.1
     sweep), in three digits; past ``most`` values only every k-th one is labelled, so
     that refined grids do not print labels on top of each other (default: 6 on a y
@@ -324,15 +324,15 @@ def _grid_ticks(axis, values, most=None):
     axis.set_minor_formatter(NullFormatter())
 
 
-def _eta_axis(ax, eta):
+def eta_axis(ax, eta):
     """The x axis of curves against eta: logarithmic where the grid is, labelled."""
-    if _log_axis(eta):
+    if log_axis(eta):
         ax.set_xscale("log")
-        _grid_ticks(ax.xaxis, eta)
+        grid_ticks(ax.xaxis, eta)
     ax.set_xlabel(ETA_LABEL)
 
 
-def _tidy_log(ax):
+def tidy_log(ax):
     """Log axes spanning under two decades get labelled 1-2-5 ticks (under one decade:
     1..9) in plain numbers, not a single 10^0 nor overlapping minor labels."""
     for axis, lim in ((ax.xaxis, ax.get_xlim()), (ax.yaxis, ax.get_ylim())):
@@ -346,6 +346,6 @@ def _tidy_log(ax):
             axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
 
 
-def _no_data(ax, text="no data"):
+def no_data(ax, text="no data"):
     ax.text(0.5, 0.5, text, transform=ax.transAxes, ha="center", va="center", color="0.3",
             bbox={"facecolor": "w", "edgecolor": "none", "alpha": 0.9})

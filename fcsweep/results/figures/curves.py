@@ -9,9 +9,9 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from fcsweep.results.figures.common import (CAPTION_SIZE, COLUMN, DOUBLE_COLUMN, ETA_SYMBOL, OKABE_ITO, TAU_PERC,
-                                             TIME_UNIT, V0_SYMBOL, caption, _axes, _caption_chars, _colors, _err,
-                                             _eta_axis, _no_data, _panels, _plane, _styled, _tidy_log,
-                                             _value_colorbar)
+                                            TIME_UNIT, V0_SYMBOL, caption, caption_chars, error_of, eta_axis, no_data,
+                                            on_plane, own_axes, panel_axes, styled, tidy_log, value_colorbar,
+                                            value_colors)
 from fcsweep.model.shape import Q_STAR
 
 
@@ -23,22 +23,22 @@ def _per_v0(ds, var, coord, select, draw, ylabel, xlabel, *, sharey=True, axes=N
     etas = ds["eta"].values
     own = axes is None
     if own:
-        fig, axes = _panels(len(v0s), sharey=sharey)
+        fig, axes = panel_axes(len(v0s), sharey=sharey)
     else:
         axes = list(axes)
         if len(axes) != len(v0s):
             raise ValueError(f"{len(v0s)} Axes needed (one per v0), got {len(axes)}")
         fig = axes[0].figure
-    cols = _colors(len(etas))
+    cols = value_colors(len(etas))
     drew_any = False
     for ax, v in zip(axes, v0s):
         sel = {**dict(select or {}), "v0": v}
-        c = _plane(ds, var, ("eta", coord), sel)
+        c = on_plane(ds, var, ("eta", coord), sel)
         drew = False
         for k, e in enumerate(c["eta"].values):
             drew |= bool(draw(ax, c[coord].values, c.sel(eta=e).values, cols[k]))
         if not drew:
-            _no_data(ax, "no defect clusters" if var == "cluster_size_distribution" else "no data")
+            no_data(ax, "no defect clusters" if var == "cluster_size_distribution" else "no data")
         drew_any |= drew
         ax.set_title(rf"$v_0$ = {float(v):g} $\mu F$")
     for ax in axes:
@@ -48,7 +48,7 @@ def _per_v0(ds, var, coord, select, draw, ylabel, xlabel, *, sharey=True, axes=N
         if spec is None or spec.is_first_col():
             ax.set_ylabel(ylabel)
     if drew_any:
-        _value_colorbar(fig, axes, etas, ETA_SYMBOL)
+        value_colorbar(fig, axes, etas, ETA_SYMBOL)
     else:  # empty panels: no scale to read
         for ax in axes:
             ax.tick_params(which="both", left=False, bottom=False, labelleft=False, labelbottom=False)
@@ -57,7 +57,7 @@ def _per_v0(ds, var, coord, select, draw, ylabel, xlabel, *, sharey=True, axes=N
     return fig, axes
 
 
-@_styled
+@styled
 def q_distributions(ds, *, select=None, axes=None):
     """Shape-index distributions P(q), one panel per v0, one curve per eta, with q* = 3.81
     and the circle's 2 sqrt(pi) marked.  ``axes``: one Axes per v0 to draw into."""
@@ -75,17 +75,17 @@ def q_distributions(ds, *, select=None, axes=None):
     return fig
 
 
-@_styled
+@styled
 def largest_cluster(ds, *, v0=None, select=None, ax=None):
     """Largest defect-cluster fraction against eta at one v0 (default: the largest), one
     curve per N, with error bars where ``largest_cluster_fraction_err`` exists.
     ``ax``: draw into this Axes (else a new figure one column wide)."""
     sel = dict(select or {})
     sel["v0"] = ds["v0"].values[-1] if v0 is None else v0
-    p = _plane(ds, "largest_cluster_fraction", ("N", "eta"), sel)
-    err = _err(ds, "largest_cluster_fraction", ("N", "eta"), sel)
+    p = on_plane(ds, "largest_cluster_fraction", ("N", "eta"), sel)
+    err = error_of(ds, "largest_cluster_fraction", ("N", "eta"), sel)
     own = ax is None
-    fig, ax = _axes(ax, (COLUMN, 2.7))
+    fig, ax = own_axes(ax, (COLUMN, 2.7))
     palette = [OKABE_ITO[c] for c in ("blue", "vermillion", "green", "orange", "purple", "sky", "black")]
     eta = p["eta"].values.astype(float)
     for k, N in enumerate(p["N"].values):
@@ -93,14 +93,14 @@ def largest_cluster(ds, *, v0=None, select=None, ax=None):
         ok = np.isfinite(y)
         ax.errorbar(eta[ok], y[ok], yerr=None if err is None else err[k][ok], fmt="o-",
                     color=palette[k % len(palette)], capsize=2.0, label=f"N = {int(N)}")
-    _eta_axis(ax, eta)
+    eta_axis(ax, eta)
     ax.set_ylabel(r"$P_{\max} = s_{\max}/N$")
     ax.set_ylim(-0.02, 1.02)
     head = rf"$v_0$ = {float(sel['v0']):g} $\mu F$"
     if own:
         cap = caption(ds, {k: v for k, v in sel.items() if k != "N"})
         head += ", " + cap.split(", ", 1)[-1]
-    ax.set_title(textwrap.fill(head, _caption_chars(ax), break_long_words=False), fontsize=CAPTION_SIZE,
+    ax.set_title(textwrap.fill(head, caption_chars(ax), break_long_words=False), fontsize=CAPTION_SIZE,
                  loc="left")
     ax.legend(loc="best")
     return fig
@@ -166,7 +166,7 @@ def _guide(ax, x, slope, label, style="k--", through=None):
     return line
 
 
-@_styled
+@styled
 def cluster_sizes(ds, *, select=None, axes=None):
     """Defect cluster-size densities n(s), one panel per v0, one curve per eta, with the
     s^(-187/91) percolation guide; a panel without defects says so (and without any
@@ -191,7 +191,7 @@ def cluster_sizes(ds, *, select=None, axes=None):
     return fig
 
 
-@_styled
+@styled
 def correlations(ds, *, across="eta", at=None, select=None, axes=None):
     """G_r(dx, 0) - 1 (symlog: it oscillates about 0) and G6(r) (log-log) with the
     KTHNY -1/3 and -1/4 guides (drawn through the top of the data; the axis ranges are
@@ -205,8 +205,8 @@ def correlations(ds, *, across="eta", at=None, select=None, axes=None):
     fixed = "v0" if across == "eta" else "eta"
     sel = dict(select or {})
     sel[fixed] = ds[fixed].values[-1] if at is None else at
-    gr = _plane(ds, "Gr", (across, "dx"), sel)
-    g6 = _plane(ds, "G6", (across, "r"), sel)
+    gr = on_plane(ds, "Gr", (across, "dx"), sel)
+    g6 = on_plane(ds, "G6", (across, "r"), sel)
     values = gr[across].values
     label = ETA_SYMBOL if across == "eta" else V0_SYMBOL
     own = axes is None
@@ -215,7 +215,7 @@ def correlations(ds, *, across="eta", at=None, select=None, axes=None):
     else:
         a1, a2 = axes
         fig = a1.figure
-    for e, col in zip(values, _colors(len(values))):
+    for e, col in zip(values, value_colors(len(values))):
         x, y = gr["dx"].values, gr.sel({across: e}).values - 1.0
         ok = np.isfinite(y) & (x > 0)
         if ok.any():
@@ -239,10 +239,10 @@ def correlations(ds, *, across="eta", at=None, select=None, axes=None):
     a2.set_xlabel(r"$r / R_0$")
     a2.set_ylabel(r"$G_6(r)$")
     fixed_label = rf"$v_0$ = {float(sel[fixed]):g} $\mu F$" if fixed == "v0" else rf"$\eta$ = {float(sel[fixed]):g} $F$"
-    _tidy_log(a1)
-    _tidy_log(a2)
+    tidy_log(a1)
+    tidy_log(a2)
     if a1.get_lines() or a2.get_lines():
-        _value_colorbar(fig, [a1, a2], values, label)
+        value_colorbar(fig, [a1, a2], values, label)
     if own:
         fig.suptitle(f"{fixed_label};  " + caption(ds, select), fontsize=CAPTION_SIZE)
     else:
@@ -250,20 +250,20 @@ def correlations(ds, *, across="eta", at=None, select=None, axes=None):
     return fig
 
 
-@_styled
+@styled
 def msd_curves(ds, *, v0=None, select=None, ax=None):
     """MSD against lag time, one curve per eta at one v0 (default: the largest), log-log,
     with the ballistic (slope 2) and diffusive (slope 1) guides.  ``ax``: draw into this
     Axes (else a new figure one column wide)."""
     sel = dict(select or {})
     sel["v0"] = ds["v0"].values[-1] if v0 is None else v0
-    m = _plane(ds, "msd", ("eta", "lag_time"), sel)
+    m = on_plane(ds, "msd", ("eta", "lag_time"), sel)
     own = ax is None
-    fig, ax = _axes(ax, (COLUMN, 2.7))
+    fig, ax = own_axes(ax, (COLUMN, 2.7))
     t = m["lag_time"].values
     etas = m["eta"].values
     first = []
-    for e, col in zip(etas, _colors(len(etas))):
+    for e, col in zip(etas, value_colors(len(etas))):
         y = m.sel(eta=e).values
         ok = np.isfinite(y) & (y > 0) & (t > 0)
         if ok.any():
@@ -276,14 +276,14 @@ def msd_curves(ds, *, v0=None, select=None, ax=None):
         ax.loglog(tt, y0 * (tt / tt[0]) ** 2, "k:", lw=1, label=r"$\propto t^2$ (ballistic)")
         ax.loglog(tt, y0 * (tt / tt[0]), "k--", lw=1, label=r"$\propto t$ (diffusive)")
         ax.legend(loc="upper left")
-    _tidy_log(ax)
+    tidy_log(ax)
     ax.set_xlabel(f"lag time t [{TIME_UNIT}]")
     ax.set_ylabel(r"MSD / $R_0^2$")
     head = rf"$v_0$ = {float(sel['v0']):g} $\mu F$"
     if own:
         head += ", " + caption(ds, select)
-    ax.set_title(textwrap.fill(head, _caption_chars(ax), break_long_words=False), fontsize=CAPTION_SIZE,
+    ax.set_title(textwrap.fill(head, caption_chars(ax), break_long_words=False), fontsize=CAPTION_SIZE,
                  loc="left")
     if first:
-        _value_colorbar(fig, ax, etas, ETA_SYMBOL)
+        value_colorbar(fig, ax, etas, ETA_SYMBOL)
     return fig

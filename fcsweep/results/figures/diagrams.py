@@ -15,9 +15,9 @@ import xarray as xr
 
 from fcsweep.analysis.diffusion import D_EFF_SOLID
 from fcsweep.results.figures.common import (CAPTION_SIZE, COLUMN, ETA_LABEL, OKABE_ITO, PHASE_COLORS, V0_LABEL,
-                                             V0_SYMBOL, caption, _axes, _caption_chars, _colors, _edges, _err,
-                                             _eta_axis, _flag_words, _grid_ticks, _log_axis, _phase_words, _plane,
-                                             _select, _styled, _tidy_log, _value_colorbar)
+                                            V0_SYMBOL, caption, caption_chars, cell_edges, error_of, eta_axis,
+                                            flag_words, grid_ticks, log_axis, on_plane, own_axes, phase_words,
+                                            reduce_to, styled, tidy_log, value_colorbar, value_colors)
 from fcsweep.analysis.phase import KTHNY_FLAGS, RHO_D_PERCOLATION
 from fcsweep.analysis.reasons import reason_short, reason_value
 from fcsweep.model.shape import Q_STAR
@@ -90,7 +90,7 @@ def _point_reasons(ds, keep, select, label="phase") -> np.ndarray:
     or "replicates disagree" / "starts disagree" where accepted labels differ (the
     replicates of one start first). The words come from ``<label>_reason_code``
     (:func:`fcsweep.analysis.reasons.reason_short`); only where a run has no code (a
-    dataset written before the codes, such as those under docs/repro/archive, or code
+    dataset written before the codes, such as those under campaigns/archive, or code
     ``not_recorded``) from the reason text by :func:`short_reason`."""
     name, cname = f"{label}_reason", f"{label}_reason_code"
     codes = ds[label]
@@ -100,14 +100,14 @@ def _point_reasons(ds, keep, select, label="phase") -> np.ndarray:
     blank = xr.full_like(codes, "", dtype=object)
     text_da = ds[name] if name in ds else blank
     rc_da = ds[cname] if cname in ds else xr.zeros_like(codes)
-    words = _flag_words(codes)
+    words = flag_words(codes)
     bad = [c for c, w in words.items() if w in ("undetermined", "unknown")]
     over = tuple(d for d in ("initial", "replicate") if d in codes.dims and d not in keep)
     n_start = ds.sizes["initial"] if "initial" in over else 1
 
     def plane(da):  # per point: (starts, replicates), length 1 where not reduced
         da = da.load().broadcast_like(codes)
-        return _select(da, tuple(keep) + over, select).values.reshape(shape + (n_start, -1))
+        return reduce_to(da, tuple(keep) + over, select).values.reshape(shape + (n_start, -1))
 
     text, rc, code = plane(text_da), plane(rc_da), plane(codes)
     out = np.full(shape, "", dtype=object)
@@ -130,7 +130,7 @@ def _cell_fontsize(ax, n_cols) -> tuple[float, int]:
     return size, max(int(width_pt / (0.55 * size)), 6)
 
 
-@_styled
+@styled
 def _eta_v0_axes(ax, eta, v0, ex, ey, log_x: bool, log_y: bool) -> None:
     """Scales, grid ticks, limits (cell edges ``ex``, ``ey``) and labels of an eta x v0 map."""
     if log_x:
@@ -139,7 +139,7 @@ def _eta_v0_axes(ax, eta, v0, ex, ey, log_x: bool, log_y: bool) -> None:
         ax.set_yscale("log")
     for axis, log, vals in ((ax.xaxis, log_x, eta), (ax.yaxis, log_y, v0)):
         if log:
-            _grid_ticks(axis, vals)
+            grid_ticks(axis, vals)
     ax.set_xlim(ex[0], ex[-1])
     ax.set_ylim(ey[0], ey[-1])
     ax.set_xlabel(ETA_LABEL)
@@ -173,11 +173,11 @@ def phase_diagram(ds, *, select=None, reasons: bool = True, ax=None):
     matplotlib.figure.Figure
     """
     eta, v0 = ds["eta"].values.astype(float), ds["v0"].values.astype(float)
-    words = _phase_words(ds, ("v0", "eta"), select)
-    log_x, log_y = _log_axis(eta), _log_axis(v0)
-    ex, ey = _edges(eta, log_x), _edges(v0, log_y)
+    words = phase_words(ds, ("v0", "eta"), select)
+    log_x, log_y = log_axis(eta), log_axis(v0)
+    ex, ey = cell_edges(eta, log_x), cell_edges(v0, log_y)
     own = ax is None
-    fig, ax = _axes(ax, (COLUMN, 3.3))
+    fig, ax = own_axes(ax, (COLUMN, 3.3))
     order = ["solid", "fluid", "soft_fluid", "undetermined", "unknown"]
     idx = np.vectorize(lambda w: order.index(w) if w in order else order.index("unknown"))(words)
     cmap = ListedColormap([PHASE_COLORS[w][0] for w in order])
@@ -195,7 +195,7 @@ def phase_diagram(ds, *, select=None, reasons: bool = True, ax=None):
                                          ("rho_d", RHO_D_PERCOLATION, "--", r"$\rho_d = 1/2$")):
             if var not in ds:
                 continue
-            field = _plane(ds, var, ("v0", "eta"), select).values
+            field = on_plane(ds, var, ("v0", "eta"), select).values
             f = np.ma.masked_invalid(field)
             if f.count() >= 4 and np.nanmin(field) < level < np.nanmax(field):
                 ax.contour(eta, v0, f, levels=[level], colors="k", linestyles=style, linewidths=1.5)
@@ -213,7 +213,7 @@ def phase_diagram(ds, *, select=None, reasons: bool = True, ax=None):
                         fontsize=size, color="k", gid="reason", linespacing=1.0,
                         bbox={"facecolor": "w", "edgecolor": "none", "alpha": 0.75, "pad": 0.8})
     if own:
-        ax.set_title(caption(ds, select, _caption_chars(ax)), fontsize=CAPTION_SIZE, loc="left")
+        ax.set_title(caption(ds, select, caption_chars(ax)), fontsize=CAPTION_SIZE, loc="left")
     ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.2), borderaxespad=0,
               ncols=3, columnspacing=1.0, handlelength=1.6)
     return fig
@@ -224,11 +224,11 @@ def _accepted(ds, keep, select) -> np.ndarray | None:
     for datasets without the ``phase`` variable."""
     if "phase" not in ds:
         return None
-    words = _phase_words(ds, keep, select)
+    words = phase_words(ds, keep, select)
     return (words != "undetermined") & (words != "unknown")
 
 
-@_styled
+@styled
 def d_eff_curves(ds, *, select=None, ax=None):
     """D_eff against eta, one curve per v0, with 1-sigma error bars where the dataset has
     ``D_eff_err`` and the solid threshold 1e-3; a log axis, symlog where some D_eff <= 0
@@ -253,16 +253,16 @@ def d_eff_curves(ds, *, select=None, ax=None):
     -------
     matplotlib.figure.Figure
     """
-    D = _plane(ds, "D_eff", ("v0", "eta"), select)
-    err = _err(ds, "D_eff", ("v0", "eta"), select)
+    D = on_plane(ds, "D_eff", ("v0", "eta"), select)
+    err = error_of(ds, "D_eff", ("v0", "eta"), select)
     accepted = _accepted(ds, ("v0", "eta"), select)
     eta, v0 = D["eta"].values.astype(float), D["v0"].values
     own = ax is None
-    fig, ax = _axes(ax, (COLUMN, 2.7))
-    cr = _plane(ds, "D_eff_cr", ("v0", "eta"), select).values if "D_eff_cr" in ds else None
-    cr_err = _err(ds, "D_eff_cr", ("v0", "eta"), select) if cr is not None else None
+    fig, ax = own_axes(ax, (COLUMN, 2.7))
+    cr = on_plane(ds, "D_eff_cr", ("v0", "eta"), select).values if "D_eff_cr" in ds else None
+    cr_err = error_of(ds, "D_eff_cr", ("v0", "eta"), select) if cr is not None else None
     hollow_any = filled_any = False
-    for k, col in enumerate(_colors(len(v0))):
+    for k, col in enumerate(value_colors(len(v0))):
         y = D.values[k]
         ok = np.isfinite(y)
         if not ok.any():
@@ -291,8 +291,8 @@ def d_eff_curves(ds, *, select=None, ax=None):
         ax.set_yscale("log")
         lo, hi = ax.get_ylim()
         ax.set_ylim(min(lo, D_EFF_SOLID / 4), max(hi, 2 * D_EFF_SOLID))  # room for the threshold's words
-        _tidy_log(ax)
-    _eta_axis(ax, eta)
+        tidy_log(ax)
+    eta_axis(ax, eta)
     ax.set_ylabel(r"$D_{\rm eff} = D_s / D_0$")
     marks = []
     if hollow_any:
@@ -305,8 +305,8 @@ def d_eff_curves(ds, *, select=None, ax=None):
     if marks:
         ax.legend(handles=marks, loc="best", handletextpad=0.2)
     if own:
-        ax.set_title(caption(ds, select, _caption_chars(ax)), fontsize=CAPTION_SIZE, loc="left")
-    _value_colorbar(fig, ax, v0, V0_SYMBOL)
+        ax.set_title(caption(ds, select, caption_chars(ax)), fontsize=CAPTION_SIZE, loc="left")
+    value_colorbar(fig, ax, v0, V0_SYMBOL)
     return fig
 
 
@@ -327,8 +327,8 @@ def summary_labels(ds, select=None) -> np.ndarray:
     label is not decided (undetermined or unknown: at N < 4096 it never is);
     ``undetermined`` where neither is decided and one is undetermined, else ``unknown``
     (``none`` where no run exists: an empty ``run_id``).  Needs ``kthny``."""
-    kthny = _phase_words(ds, ("v0", "eta"), select, var="kthny", default=KTHNY_FLAGS)
-    phase = _phase_words(ds, ("v0", "eta"), select) if "phase" in ds else np.full(kthny.shape, "unknown", object)
+    kthny = phase_words(ds, ("v0", "eta"), select, var="kthny", default=KTHNY_FLAGS)
+    phase = phase_words(ds, ("v0", "eta"), select) if "phase" in ds else np.full(kthny.shape, "unknown", object)
     out = np.full(kthny.shape, "unknown", dtype=object)
     for word in ("solid", "hexatic", "liquid", "undetermined"):
         out[kthny == word] = word
@@ -339,12 +339,12 @@ def summary_labels(ds, select=None) -> np.ndarray:
     out[from_phase & (phase == "soft_fluid")] = "soft_fluid"
     out[from_phase & (phase == "undetermined")] = "undetermined"
     if "run_id" in ds:  # grid points no run visited (holes of refined or joined grids)
-        ids = _select(ds["run_id"], ("v0", "eta"), select).values
+        ids = reduce_to(ds["run_id"], ("v0", "eta"), select).values
         out[(out == "unknown") & (ids == "")] = "none"
     return out
 
 
-@_styled
+@styled
 def summary_diagram(ds, *, select=None, ax=None):
     """Summary phase diagram in the style of the paper's Fig. 4e: one symbol per grid
     point of the (eta, v0) plane naming its KTHNY label (solid hexagons, hexatic
@@ -369,10 +369,10 @@ def summary_diagram(ds, *, select=None, ax=None):
         raise ValueError("the dataset has no kthny label: aggregate it again with this version")
     eta, v0 = ds["eta"].values.astype(float), ds["v0"].values.astype(float)
     labels = summary_labels(ds, select)
-    log_x, log_y = _log_axis(eta), _log_axis(v0)
-    ex, ey = _edges(eta, log_x), _edges(v0, log_y)
+    log_x, log_y = log_axis(eta), log_axis(v0)
+    ex, ey = cell_edges(eta, log_x), cell_edges(v0, log_y)
     own = ax is None
-    fig, ax = _axes(ax, (COLUMN, 3.1))
+    fig, ax = own_axes(ax, (COLUMN, 3.1))
     E, V = np.meshgrid(eta, v0)
     size = float(np.clip(1400.0 / max(len(eta), len(v0)) ** 2, 12.0, 90.0))
     handles = []
@@ -388,7 +388,7 @@ def summary_diagram(ds, *, select=None, ax=None):
         handles.append(word)
     _eta_v0_axes(ax, eta, v0, ex, ey, log_x, log_y)
     if own:
-        ax.set_title(caption(ds, select, _caption_chars(ax)), fontsize=CAPTION_SIZE, loc="left")
+        ax.set_title(caption(ds, select, caption_chars(ax)), fontsize=CAPTION_SIZE, loc="left")
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.2), borderaxespad=0, ncols=3, columnspacing=1.0,
               handletextpad=0.2, markerscale=min(1.0, 40.0 / size) ** 0.5)
     return fig

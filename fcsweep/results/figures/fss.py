@@ -7,8 +7,8 @@ import textwrap
 
 import numpy as np
 
-from fcsweep.results.figures.common import (CAPTION_SIZE, COLUMN, OKABE_ITO, caption, _axes, _caption_chars, _err,
-                                             _no_data, _plane, _select, _styled)
+from fcsweep.results.figures.common import (CAPTION_SIZE, COLUMN, OKABE_ITO, caption, caption_chars, error_of, no_data,
+                                            on_plane, own_axes, reduce_to, styled)
 from fcsweep.analysis.phase import RHO_D_PERCOLATION
 
 
@@ -27,13 +27,13 @@ def _fss_slice(ds, select):
     sel.pop("N", None)
     keep = ("N", "eta")
     if "rho_d_rmean" in ds and "largest_cluster_fraction_rmean" in ds:
-        rho = _select(ds["rho_d_rmean"], keep, sel).values
-        p = _select(ds["largest_cluster_fraction_rmean"], keep, sel).values
-        e = _select(ds["largest_cluster_fraction_rmean_err"], keep, sel).values
+        rho = reduce_to(ds["rho_d_rmean"], keep, sel).values
+        p = reduce_to(ds["largest_cluster_fraction_rmean"], keep, sel).values
+        e = reduce_to(ds["largest_cluster_fraction_rmean_err"], keep, sel).values
     else:
-        rho = _plane(ds, "rho_d", keep, sel).values
-        p = _plane(ds, "largest_cluster_fraction", keep, sel).values
-        e = _err(ds, "largest_cluster_fraction", keep, sel)
+        rho = on_plane(ds, "rho_d", keep, sel).values
+        p = on_plane(ds, "largest_cluster_fraction", keep, sel).values
+        e = error_of(ds, "largest_cluster_fraction", keep, sel)
         e = np.full(p.shape, np.nan) if e is None else e
     N = np.broadcast_to(ds["N"].values.astype(float)[:, None], p.shape)
     return rho, p, e, N, sel
@@ -47,11 +47,11 @@ def _fss_head(ds, sel, own, ax, text):
         rest = [c for c in caption(ds, sel).split(", ") if c and not c.startswith("N = ")]
         if rest:
             head += ", " + ", ".join(rest)
-    ax.set_title(textwrap.fill(head, _caption_chars(ax), break_long_words=False), fontsize=CAPTION_SIZE,
+    ax.set_title(textwrap.fill(head, caption_chars(ax), break_long_words=False), fontsize=CAPTION_SIZE,
                  loc="left")
 
 
-@_styled
+@styled
 def fss_collapse_figure(ds, *, select=None, exponents="fit", ax=None):
     """Finite-size collapse of the largest defect cluster (the paper's Fig. 3c):
     ``P_max L^(beta/nu)`` against ``(rho_d - rho_c) L^(1/nu)``, ``L = sqrt(N)``, one
@@ -81,16 +81,16 @@ def fss_collapse_figure(ds, *, select=None, exponents="fit", ax=None):
         raise ValueError(f"exponents must be 'fit' or 'paper', got {exponents!r}")
     rho, p, e, N, sel = _fss_slice(ds, select)
     own = ax is None
-    fig, ax = _axes(ax, (COLUMN, 2.7))
+    fig, ax = own_axes(ax, (COLUMN, 2.7))
     ok = np.isfinite(rho) & np.isfinite(p)
     fit, why = None, ""
     if exponents == "fit" and "fss_rho_c" in ds:
-        vals = {k: float(_select(ds[f"fss_{k}"], (), sel).values)
+        vals = {k: float(reduce_to(ds[f"fss_{k}"], (), sel).values)
                 for k in ("rho_c", "rho_c_err", "nu", "nu_err", "beta", "beta_err")}
         if np.isfinite(vals["rho_c"]):
             fit = vals
         else:
-            why = str(_select(ds["fss_reason"], (), sel).values) if "fss_reason" in ds else "no fit"
+            why = str(reduce_to(ds["fss_reason"], (), sel).values) if "fss_reason" in ds else "no fit"
     elif np.unique(N[ok]).size >= 2:
         fixed = {"nu": NU_2D, "beta": BETA_2D} if exponents == "paper" else None
         r = fss_collapse(rho[ok], p[ok], N[ok], np.where(np.isfinite(e[ok]), e[ok], 0.0), fixed=fixed,
@@ -100,7 +100,7 @@ def fss_collapse_figure(ds, *, select=None, exponents="fit", ax=None):
     else:
         why = "fewer than two N with data"
     if fit is None:
-        _no_data(ax, textwrap.fill(f"no collapse: {why}", 40))
+        no_data(ax, textwrap.fill(f"no collapse: {why}", 40))
         _fss_head(ds, sel, own, ax, "")
         return fig
     for k, n in enumerate(ds["N"].values):
@@ -131,7 +131,7 @@ def fss_collapse_figure(ds, *, select=None, exponents="fit", ax=None):
     return fig
 
 
-@_styled
+@styled
 def largest_cluster_unscaled(ds, *, select=None, ax=None):
     """Largest defect-cluster fraction P_max against the defect fraction rho_d, one
     marker and colour per N, with 1-sigma error bars (the paper's Fig. S7: the data of
@@ -153,7 +153,7 @@ def largest_cluster_unscaled(ds, *, select=None, ax=None):
     """
     rho, p, e, N, sel = _fss_slice(ds, select)
     own = ax is None
-    fig, ax = _axes(ax, (COLUMN, 2.7))
+    fig, ax = own_axes(ax, (COLUMN, 2.7))
     ok = np.isfinite(rho) & np.isfinite(p)
     for k, n in enumerate(ds["N"].values):
         m = ok[k]
@@ -165,7 +165,7 @@ def largest_cluster_unscaled(ds, *, select=None, ax=None):
                     fmt=FSS_MARKERS[k % len(FSS_MARKERS)] + "-", ms=3.5, capsize=1.5, mfc="none", lw=0.8,
                     color=FSS_PALETTE[k % len(FSS_PALETTE)], label=f"N = {int(n)}")
     if not ok.any():
-        _no_data(ax)
+        no_data(ax)
     ax.axvline(RHO_D_PERCOLATION, color="0.6", lw=0.7, ls=":")
     ax.set_xlabel(r"defect fraction $\rho_d$")
     ax.set_ylabel(r"$P_{\max} = s_{\max}/N$")

@@ -12,14 +12,14 @@ from pathlib import Path
 
 import numpy as np
 
-from fcsweep.results.figures.common import (COLUMN, PHASE_COLORS, _axes, _err, _phase_words, _plane, _styled)
+from fcsweep.results.figures.common import (COLUMN, PHASE_COLORS, error_of, on_plane, own_axes, phase_words, styled)
 from fcsweep.analysis.phase import RHO_D_PERCOLATION
 from fcsweep.model.shape import Q_STAR
 
 __all__ = ["measured_plane"]
 
 
-@_styled
+@styled
 def measured_plane(ds, measured, *, names=None, ax=None):
     """The <q> - rho_d plane of a sweep with measured movies on it.
 
@@ -38,12 +38,12 @@ def measured_plane(ds, measured, *, names=None, ax=None):
     -------
     matplotlib.figure.Figure
     """
-    fig, ax = _axes(ax, (COLUMN, COLUMN * 1.2))
+    fig, ax = own_axes(ax, (COLUMN, COLUMN * 1.2))
     keep = ("eta", "v0")
-    q = _plane(ds, "q_mean", keep).values.ravel()
-    rho = _plane(ds, "rho_d", keep).values.ravel()
-    qe, re = _err(ds, "q_mean", keep, None), _err(ds, "rho_d", keep, None)
-    words = _phase_words(ds, keep, None).ravel() if "phase" in ds else np.full(q.size, "unknown")
+    q = on_plane(ds, "q_mean", keep).values.ravel()
+    rho = on_plane(ds, "rho_d", keep).values.ravel()
+    qe, re = error_of(ds, "q_mean", keep, None), error_of(ds, "rho_d", keep, None)
+    words = phase_words(ds, keep, None).ravel() if "phase" in ds else np.full(q.size, "unknown")
     for word in dict.fromkeys(words):
         sel = (words == word) & np.isfinite(q) & np.isfinite(rho)
         if not sel.any():
