@@ -2,7 +2,7 @@
 starts): per grid point the label of each start with its confidence, the point's label,
 whether the starts agree, the deciding numbers and the CPU of each start's run.
 
-    python docs/repro/both_starts_table.py DATASET.nc [RUNS_DIR]
+    python campaigns/both_starts_table.py DATASET.nc [RUNS_DIR]
 
 RUNS_DIR (the sweep's ``runs/`` folder) adds the CPU seconds and run lengths from each
 run's ``status.json``.

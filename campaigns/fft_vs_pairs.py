@@ -1,6 +1,6 @@
 """KTHNY from the FFT correlations against the pair counts of runs already analysed.
 
-    python docs/repro/fft_vs_pairs.py RUNS_DIR OUT_DIR
+    python campaigns/fft_vs_pairs.py RUNS_DIR OUT_DIR
 
 For every ``RUNS_DIR/<id>/trajectory.h5`` with an ``analysis.h5`` made with the pair counts,
 analyses the run again with the same settings but ``correlations: fft`` into

@@ -2,7 +2,7 @@
 (configs/paper_correlations_4900.yaml, v0 = 0.01-0.05) and v0 = 0.06
 (configs/paper_percolation_cut.yaml, eta = 0.01-0.1), drawn on one (eta, v0) plane:
 
-    python docs/repro/paper_fig4e.py CORRELATIONS.nc PERCOLATION.nc FIGURE.png
+    python campaigns/paper_fig4e.py CORRELATIONS.nc PERCOLATION.nc FIGURE.png
 
 Labels are the datasets' own (fcsweep.results.figures.summary_labels: KTHNY where decided,
 else the phase label); grid points neither scan visited are left empty."""

@@ -3,7 +3,7 @@ configs/paper_percolation_cut.yaml (N = 256, 1024, 4900) and configs/paper_perco
 (N = 10^4), prints P_max per eta and N, the Fisher exponents and the finite-size collapse over
 all sizes and over N >= 1024, and draws the collapse and the unscaled data:
 
-    python docs/repro/paper_fss.py CUT.nc TENK.nc [FIGURE_DIR]
+    python campaigns/paper_fss.py CUT.nc TENK.nc [FIGURE_DIR]
 
 The collapse is the one `fcsweep aggregate` stores per v0 (fcsweep.analysis.fss.fss_collapse
 on the replicate means of P_max against rho_d, bootstrap errors); here it just sees the four

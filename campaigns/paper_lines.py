@@ -1,5 +1,5 @@
 """Where the soft-fluid line <q> = 3.81 and the percolation line rho_d = 1/2 cross eta at each
-v0 (Fig. 3d), from an aggregated phase-diagram dataset: python docs/repro/paper_lines.py DATASET.nc
+v0 (Fig. 3d), from an aggregated phase-diagram dataset: python campaigns/paper_lines.py DATASET.nc
 
 Linear interpolation between the two grid points that bracket the level; the 1-sigma error
 propagates the errors of both points (correlation in time included in them)."""

@@ -1,5 +1,5 @@
 """Print the per-point table of docs/reproduction.md (paper's claims at the paper's N) from
-aggregated datasets: python docs/repro/paper_table.py DATASET.nc [...]."""
+aggregated datasets: python campaigns/paper_table.py DATASET.nc [...]."""
 
 import sys
 

@@ -130,7 +130,7 @@ def main(path, runs=None, out=None):
                 q = np.array_split(np.arange(len(t)), 4)
                 print(f"eta={eta:g} N={N}: rho_d " + " ".join(f"{rho[i].mean():.3f}" for i in q)
                       + " | P_max " + " ".join(f"{pm[i].mean():.3f}" for i in q)
-                      + f" | quarters end at t = " + ", ".join(f"{t[i[-1]]:.0f}" for i in q))
+                      + " | quarters end at t = " + ", ".join(f"{t[i[-1]]:.0f}" for i in q))
     if out:
         import matplotlib
 

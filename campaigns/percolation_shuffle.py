@@ -1,6 +1,6 @@
 """Real and shuffled-label finite-size collapses of defect percolation, side by side.
 
-    python docs/repro/percolation_shuffle.py SWEEP.yaml|DATASET.nc [...]
+    python campaigns/percolation_shuffle.py SWEEP.yaml|DATASET.nc [...]
 
 Each argument is a sweep config (its ``<output>/phase_diagram.nc`` is read, so run
 ``fcsweep analyze`` and ``fcsweep aggregate`` first) or a dataset.  The datasets are joined

@@ -1,6 +1,6 @@
 """Calibrated Fisher exponent of the percolation cuts, against exact site percolation.
 
-Usage (from docs/repro): python percolation_tau.py percolation_long/phase_diagram.nc [more.nc ...]
+Usage (from campaigns): python percolation_tau.py percolation_long/phase_diagram.nc [more.nc ...]
 
 For every (eta, N) of each dataset: tau from fcsweep.analysis.percolation.fit_fisher_exponent
 on the pooled cluster_size_distribution (window, error, amplitude a, goodness of fit, flag),

@@ -36,7 +36,7 @@ extensions = [
 source_suffix = {".md": "markdown", ".rst": "restructuredtext"}
 root_doc = "index"
 templates_path = ["_templates"]
-# docs/repro and docs/adaptive hold campaign data and notes linked from the pages, not pages
+# docs/adaptive holds the figures and the table of docs/adaptive.md (campaign data: campaigns/)
 # adaptive/comparison.md is a generated table without a title: adaptive_table.md includes it
 exclude_patterns = ["_build", "adaptive/comparison.md", "Thumbs.db", ".DS_Store"]
 
@@ -77,13 +77,22 @@ _LINK = re.compile(r"\[([^\]]*)\]\(([^)\s#]*)(#[^)\s]*)?\)")
 def _site_links(app, docname, source):
     """Point the pages' repository links at the site: a link to an included document goes
     to the page that includes it, a link to a folder to its README.md (a folder without
-    one, e.g. of datasets, is named, not linked)."""
+    one, e.g. of datasets, is named, not linked), and a link to a file outside docs/ that
+    is not a page (the campaigns' datasets and logs) becomes a download of that file."""
     here = (Path(app.srcdir) / docname).parent
+    site = Path(app.srcdir).resolve()
 
     def sub(m):
         text, target, anchor = m.group(1), m.group(2), m.group(3) or ""
         if target in PAGE_OF and "/" not in docname:
             return f"[{text}]({PAGE_OF[target]}{anchor})"
+        if target and "://" not in target and site not in (here / target).resolve().parents:
+            path = (here / target).resolve()
+            if path.is_dir():
+                path = path / "README.md"
+            if path.is_file():
+                return "{download}" + f"`{text.strip('`') or path.name} <{os.path.relpath(path, here)}>`"
+            return text
         if target.endswith("/") and (here / target).is_dir() and "://" not in target:
             return f"[{text}]({target}README.md{anchor})" if (here / target / "README.md").exists() else text
         return m.group(0)

@@ -4,7 +4,7 @@ A square L x L grid with the bonds (1, 0), (0, 1) and (1, -1) (periodic) is the
 triangular lattice (coordination 6), whose site-percolation threshold is exactly 1/2;
 at p = 1/2 cluster sizes follow n_s ~ s^-187/91.  Clusters are the connected components
 of occupied sites (scipy.sparse.csgraph), many realisations labelled at once as one
-block-diagonal graph.  Test helper (also used by docs/repro/percolation_tau.py), not
+block-diagonal graph.  Test helper (also used by campaigns/percolation_tau.py), not
 part of the package.
 """
 

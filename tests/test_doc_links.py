@@ -1,7 +1,7 @@
 """Every file, section and path the documents name exists in the repository.
 
-Checked: README.md, CHANGELOG.md, results_schema.md, every page of docs/ (campaign logs
-under docs/repro and docs/adaptive included), configs/README.md and the comments of
+Checked: README.md, CHANGELOG.md, results_schema.md, every page of docs/, the campaign notes
+and logs under campaigns/, configs/README.md and the comments of
 configs/*.yaml, workflows/README.md.  The documentation site (docs/conf.py) is checked too:
 every page is in its table of contents, and every file it includes or maps a link to exists.
 
@@ -21,11 +21,12 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 SITE = ROOT / "docs"
-DOCS = sorted({*ROOT.glob("*.md"), *(ROOT / "docs").rglob("*.md"), ROOT / "configs" / "README.md",
+DOCS = sorted({*ROOT.glob("*.md"), *(ROOT / "docs").rglob("*.md"), *(ROOT / "campaigns").rglob("*.md"),
+               ROOT / "configs" / "README.md",
                *(ROOT / "configs").glob("*.yaml"), ROOT / "workflows" / "README.md"})
 
 LINK = re.compile(r"\[[^\]]*\]\(([^)\s]+)\)")
-PATH = re.compile(r"(?<![\w./-])((?:docs|configs|fcsweep|tests|benchmarks|workflows)/[\w./-]*\w)(?![\w*<{])")
+PATH = re.compile(r"(?<![\w./-])((?:docs|configs|fcsweep|tests|benchmarks|workflows|campaigns)/[\w./-]*\w)(?![\w*<{])")
 BARE_MD = re.compile(r"(?<![\w./-])([A-Za-z][\w-]*\.md)\b")
 SECTION = re.compile(r"README:?\s*[\"“]([^\"”]+)[\"”]")
 

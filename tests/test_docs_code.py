@@ -199,39 +199,3 @@ def test_config_cost_lines_match_the_cost_model_output():
         lines = [ln for ln in text.splitlines() if ln.startswith("# cost:")]
         assert lines == [entry["comment"]], f"configs/{name}: run benchmarks/readme_numbers.py --configs"
 
-
-# ------------------------------------------------------------------ the size of the suite
-
-REGENERATE = "python benchmarks/readme_numbers.py --only tests"
-
-
-def _whole_default_suite(config) -> bool:
-    """True when this session runs what ``python -m pytest`` runs: the test paths, the
-    default marker selection, nothing filtered."""
-    o = config.option
-    args = {Path(str(a).split("::")[0]).resolve() for a in config.args}
-    return (args <= {ROOT, ROOT / "tests"} and (o.markexpr or "") == "not slow" and not o.keyword
-            and not getattr(o, "lf", False) and not getattr(o, "failedfirst", False)
-            and not getattr(o, "deselect", None) and not getattr(o, "ignore", None)
-            and not getattr(o, "ignore_glob", None))
-
-
-def _collected_default_suite(request) -> int:
-    if _whole_default_suite(request.config):
-        return len(request.session.items)
-    out = subprocess.run([sys.executable, "-m", "pytest", "--collect-only", "-q", "-p", "no:cacheprovider"],
-                         cwd=ROOT, capture_output=True, text=True, timeout=600).stdout
-    m = re.search(r"(\d+)(?:/\d+)? tests? collected", out)
-    assert m, f"cannot read the test count from pytest --collect-only:\n{out[-2000:]}"
-    return int(m.group(1))
-
-
-def test_quoted_test_count_is_the_collected_default_suite(request):
-    """The number of tests the README and the docs quote is the number ``python -m pytest``
-    selects now (the whole default suite: read from this very session when it is the
-    whole suite, otherwise from ``pytest --collect-only``)."""
-    quoted = {q["text"] for q in _numbers()["quotes"] if q["key"] == "tests_default"}
-    assert quoted, "readme_numbers.json quotes no test count"
-    collected = _collected_default_suite(request)
-    assert quoted == {str(collected)}, (f"the docs quote {sorted(quoted)} tests, pytest collects {collected} "
-                                        f"by default: run `{REGENERATE}`")
