@@ -1,9 +1,8 @@
 """Per-cell time series read in pieces: a frame at a time, or every frame of a block of cells.
 
-The analysis of a run used to hold the unwrapped centroids of every frame after the
-transient, ``(T, N, 2)`` in float64, and made several copies of them for the MSD: at
-N = 10^5 and 501 frames that is 0.8 GB per copy.  A :class:`FrameSource` gives the same
-values in pieces instead, so that the MSD and D_eff (:mod:`fcsweep.analysis.stream`), the
+The unwrapped centroids of every frame after the transient, ``(T, N, 2)`` in float64,
+take 0.8 GB at N = 10^5 and 501 frames, and the MSD would copy them several times.  A
+:class:`FrameSource` gives the same values in pieces, so that the MSD and D_eff (:mod:`fcsweep.analysis.stream`), the
 cage measure (:func:`fcsweep.analysis.cage.cage_breaking`, which reads single frames) and
 the structure and shape steps hold a bounded number of frames, or all frames of a block of
 cells sized by :data:`BLOCK_BYTES` (computed on in pieces of :data:`WORK_BYTES`).

@@ -3,7 +3,7 @@
 The handler only records the signal.  The run loop (:mod:`fcsweep.sweep.runner`) checks
 the flag between pieces of integration of at most about half a second, writes a checkpoint
 at the current step, marks the run ``interrupted`` and returns; the executors stop handing
-out runs.  Raising from a signal handler instead (the former design) can land inside a
+out runs.  Raising from a signal handler instead can land inside a
 weakref callback or a ``finally`` block, where Python prints "Exception ignored" and the
 run simply goes on.
 
