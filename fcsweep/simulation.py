@@ -28,11 +28,13 @@ from .kernels.api import param_vector
 from .kernels.workspace import quadrature_code, workspace_for
 from .model.integrators import DEFAULT_INTEGRATOR, INTEGRATORS, contact_parameters, integrator_problem
 from .model.confinement import boundary_problem, confinement_of
+from .model.coexistence import coexistence_centres, coexistence_problem, coexistence_rng
 from .model.disordered import random_centres, soft_disc_relax, start_rng
 from .model.lattice import hexagonal_lattice, lattice_box
-from .model.parameters import DEFAULTS, INITIAL_STATES, PARAMETERS, SIGNS, core_exponent_problem
-from .model.sizes import SIZE_DISTRIBUTIONS, cell_radii, effective_radius, radius_bounds, size_problem
-from .model.shape import ADMISSIBLE_BOUND, PROJECTION_MARGIN, contour_points_problem, dt_problem
+from .model.parameters import DEFAULTS, PARAMETERS, core_exponent_problem, value_problem
+from .model.sizes import cell_radii, effective_radius, radius_bounds, size_problem
+from .model.shape import (ADMISSIBLE_BOUND, PROJECTION_MARGIN, contour_points_problem, dt_problem, step_problem,
+                          turn_problem)
 
 __all__ = ["INTEGRATORS", "SimParams", "Simulation", "SimulationError", "State"]
 
@@ -89,43 +91,24 @@ class SimParams:
     boundary_size: float = DEFAULTS["boundary_size"]
 
     def __post_init__(self):
-        for name, p in PARAMETERS.items():
-            value = getattr(self, name)
-            if name == "contour_points":
-                ok, allowed = value >= p.range[0], f">= {p.range[0]}"
-            elif name == "modes":
-                ok, allowed = value == 0 or value >= 2, "0 (rigid discs) or >= 2"
-            elif p.sign:
-                ok, allowed = p.sign_ok(value), SIGNS[p.sign][2]
-            else:
-                continue
-            if not ok:
-                raise ValueError(f"{name} must be {allowed}; got {value!r}")
+        # The config's checks, in its order: each value (the one check of a value), then the
+        # rules across parameters, then the step bounds; the first problem is raised.
+        for name in PARAMETERS:
+            problem = value_problem(name, getattr(self, name))
+            if problem:
+                raise ValueError(problem)
         quadrature_code(self.quadrature)
-        problem = integrator_problem(self.integrator, self.quadrature, self.modes)
-        if problem:
-            raise ValueError(problem)
-        if self.initial not in INITIAL_STATES:
-            raise ValueError(f"initial must be one of {list(INITIAL_STATES)}; got {self.initial!r}")
-        problem = core_exponent_problem(self.core_exponent, self.quadrature, self.modes, self.integrator)
-        if problem:
-            raise ValueError(problem)
-        if self.size_distribution not in SIZE_DISTRIBUTIONS:
-            raise ValueError(f"size_distribution must be one of {list(SIZE_DISTRIBUTIONS)}; "
-                             f"got {self.size_distribution!r}")
-        problem = size_problem(self.size_distribution, self.initial, self.integrator, self.size_width,
-                               self.adhesion)
-        if problem:
-            raise ValueError(problem)
-        problem = boundary_problem(self.boundary, self.boundary_size, self.N, self.density, self.R0,
-                                   self.radius_range[1], self.initial, self.integrator)
-        if problem:
-            raise ValueError(problem)
-        for name in (n for n, p in PARAMETERS.items() if p.type is float):
-            if not math.isfinite(getattr(self, name)):
-                raise ValueError(f"{name} must be finite; got {getattr(self, name)!r}")
-        problem = contour_points_problem(self.contour_points, self.modes) or dt_problem(
-            self.dt, self.eta, self.modes, self.mu_shape, self.radius_range[1])
+        r_min, r_max = self.radius_range
+        problem = (contour_points_problem(self.contour_points, self.modes)
+                   or dt_problem(self.dt, self.eta, self.modes, self.mu_shape, r_max)
+                   or integrator_problem(self.integrator, self.quadrature, self.modes)
+                   or core_exponent_problem(self.core_exponent, self.quadrature, self.modes, self.integrator)
+                   or size_problem(self.size_distribution, self.initial, self.integrator, self.size_width,
+                                   self.adhesion)
+                   or boundary_problem(self.boundary, self.boundary_size, self.N, self.density, self.R0, r_max,
+                                       self.initial, self.integrator)
+                   or step_problem(self.v0, self.dt, r_min, self.contour_points, self.modes)
+                   or turn_problem(self.Dr, self.dt))
         if problem:
             raise ValueError(problem)
 
@@ -203,7 +186,7 @@ class Simulation:
     see :mod:`fcsweep.model.integrators`.
 
     Use :meth:`create` for the initial state ``params.initial`` names (docs/model.md:
-    :meth:`from_lattice` or :meth:`from_disordered`), :meth:`advance` to integrate,
+    :meth:`from_lattice`, :meth:`from_disordered` or :meth:`from_coexistence`), :meth:`advance` to integrate,
     and :meth:`to_checkpoint` / :meth:`from_checkpoint` (or :meth:`save` / :meth:`load`)
     to continue a run bit for bit.
     """
@@ -253,10 +236,11 @@ class Simulation:
         Returns
         -------
         Simulation
-            :meth:`from_lattice` or :meth:`from_disordered`.
+            :meth:`from_lattice`, :meth:`from_disordered` or :meth:`from_coexistence`.
         """
         p = cls._params(N, seed, params, "create")
-        return (cls.from_disordered if p.initial == "disordered" else cls.from_lattice)(N, seed=seed, **params)
+        make = {"disordered": cls.from_disordered, "coexistence": cls.from_coexistence}.get(p.initial, cls.from_lattice)
+        return make(N, seed=seed, **params)
 
     @classmethod
     def from_lattice(cls, N, *, seed, **params) -> "Simulation":
@@ -316,6 +300,54 @@ class Simulation:
         conf = p.confinement
         centres = random_centres(p.N, box, srng) if conf is None else conf.random_points(p.N, srng, inset=p.R0)
         pos, _ = soft_disc_relax(centres, box, p.R0, radii=p.radii, confinement=conf)
+        rng = np.random.Generator(np.random.PCG64(p.seed))
+        theta = rng.uniform(0.0, 2.0 * np.pi, p.N)
+        M1 = max(p.modes - 1, 0)
+        state = State(pos=pos, image=np.zeros((p.N, 2), np.int64), theta=theta.copy(),
+                      a=np.zeros((p.N, M1)), b=np.zeros((p.N, M1)), box=box.copy())
+        relax = cls(dataclasses.replace(p, v0=0.0, Dr=0.0, mu_theta=0.0), state, srng)
+        relax.advance(int(round(relax_time / p.dt)))
+        state = State(pos=relax.state.pos, image=np.zeros((p.N, 2), np.int64), theta=theta,
+                      a=relax.state.a, b=relax.state.b, box=box)
+        return cls(p, state, rng)
+
+    @classmethod
+    def from_coexistence(cls, N, *, seed, relax_time: float = RELAX_TIME, **params) -> "Simulation":
+        """A crystal | fluid start: half the box's rows on the lattice, the rest a disordered
+        packing, two flat interfaces along x, relaxed at v0 = 0.
+
+        The slab is the lattice's rows ``n/4 <= j < 3n/4`` (``N/2`` cells); ``N/2`` centres
+        uniform in the other half of the box are pushed apart as soft discs with the slab's
+        cells held (:func:`fcsweep.model.coexistence.coexistence_centres`), so both halves
+        are at the run's area fraction.  Then, as in :meth:`from_disordered`, the model runs
+        ``relax_time`` at v0 = 0 without noise and with the polarities held, every cell
+        free: without activity or noise the slab cannot melt, and the cells at the
+        interfaces take up the packing's pressure.  The start draws from its own stream
+        (:func:`fcsweep.model.coexistence.coexistence_rng`); the polarities and then the
+        noise come from ``PCG64(seed)`` exactly as in :meth:`from_lattice`.
+
+        Parameters
+        ----------
+        N, seed, **params
+            As for :meth:`from_lattice` (``initial`` is recorded as ``"coexistence"``);
+            ``N >= 64`` (:func:`fcsweep.model.coexistence.coexistence_problem`).
+        relax_time : float
+            Duration of the model relaxation (time units).
+
+        Raises
+        ------
+        ValueError
+            If N is too small for a slab and a band, or the parameters need another start
+            (cell sizes, walls).
+        SimulationError
+            If the relaxation becomes unstable.
+        """
+        p = dataclasses.replace(cls._params(N, seed, params, "from_coexistence"), initial="coexistence")
+        problem = coexistence_problem(p.N, p.initial)
+        if problem:
+            raise ValueError(problem)
+        srng = coexistence_rng(p.seed)
+        pos, _, box = coexistence_centres(p.N, p.density, p.R0, srng)
         rng = np.random.Generator(np.random.PCG64(p.seed))
         theta = rng.uniform(0.0, 2.0 * np.pi, p.N)
         M1 = max(p.modes - 1, 0)

@@ -15,7 +15,8 @@ from fcsweep.config.errors import ConfigError, ConfigProblems, is_whole, show_va
 from fcsweep.model.confinement import boundary_problem
 from fcsweep.model.integrators import DEFAULT_INTEGRATOR, integrator_problem
 from fcsweep.model.parameters import core_exponent_problem
-from fcsweep.model.shape import contour_points_problem, dt_problem
+from fcsweep.model.shape import (MAX_DR_DT, MAX_STEP_PER_R0, MAX_STEP_PER_SPACING, contour_points_problem,  # noqa: F401
+                                  dt_problem, step_problem, turn_problem)
 from fcsweep.model.sizes import radius_bounds, size_problem
 
 #: The size parameters, in the order :func:`fcsweep.model.sizes.radius_bounds` takes them.
@@ -34,12 +35,7 @@ MAX_FRAMES = 10**7
 MAX_CELL_STEPS = 10**14
 #: Output paths: bytes of the whole path and of one component (Linux PATH_MAX, NAME_MAX).
 MAX_PATH_BYTES, MAX_NAME_BYTES = 4095, 255
-#: Largest step length v0 dt as a fraction of the contour spacing 2 pi R0 / K ...
-MAX_STEP_PER_SPACING = 0.5
-#: ... and in units of R0 whatever K (rigid discs have no contour).
-MAX_STEP_PER_R0 = 0.1
-#: Largest D_r dt: the discrete walk has D = D0 (D_r dt / 2) coth(D_r dt / 2) = D0 (1 + (D_r dt)^2/12 + ...).
-MAX_DR_DT = 0.1
+#: The step bounds (v0 dt, D_r dt) are the model's: :func:`fcsweep.model.shape.step_problem`.
 
 
 def check_runnable(cfg: "SweepConfig") -> None:
@@ -178,35 +174,20 @@ def _grid_or_model(cfg: "SweepConfig", names) -> itertools.product:
 
 
 def check_step_sizes(cfg: "SweepConfig") -> None:
-    """Refuse grid points whose step moves a cell too far or turns it too much.
-
-    - ``v0 dt <= min(MAX_STEP_PER_SPACING * 2 pi R0 / K, MAX_STEP_PER_R0 * R0)`` (the
-      contour term only for ``modes >= 2``): contacts are sampled on the contour points,
-      and a cell that jumps a large part of their spacing per step overshoots its
-      neighbours' contours;
-    - ``D_r dt <= MAX_DR_DT``: the polarity decorrelates within a few steps beyond it,
-      and the discrete walk's D0 deviates by (D_r dt)^2 / 12 from v0^2 / (2 D_r).
-
-    Both are reported together, each at the first grid point that breaks it.
+    """Refuse grid points whose step moves a cell too far or turns it too much (the model's
+    rules :func:`fcsweep.model.shape.step_problem` and :func:`~fcsweep.model.shape.turn_problem`,
+    which :class:`fcsweep.simulation.SimParams` checks too).  Both are reported together,
+    each at the first grid point that breaks it.
     """
     def where(name):
         return f"grid.{name}" if name in cfg.grid else f"model.{name}"
 
-    step = turn = None  # the first grid point of each kind: a message per kind, not per point
+    step = turn = ""  # the first grid point of each kind: a message per kind, not per point
     for v0, Dr, dt, R0, K, modes, *sizes in _grid_or_model(cfg, ("v0", "Dr", "dt", "R0", "contour_points", "modes")
                                                            + SIZE_NAMES):
         R0 = radius_bounds(*sizes, R0=R0)[0]  # the smallest cell has the finest contour spacing
-        limit = MAX_STEP_PER_R0 * R0
-        what = f"{MAX_STEP_PER_R0:g} R0"
-        if modes >= 2 and MAX_STEP_PER_SPACING * 2 * math.pi * R0 / K < limit:
-            limit = MAX_STEP_PER_SPACING * 2 * math.pi * R0 / K
-            what = f"half the contour spacing 2 pi R0/K with contour_points = {K}"
-        if step is None and v0 * dt > limit:
-            step = (f"{where('v0')} = {v0:g} with dt = {dt:g} (R0 = {R0:g}) moves a cell v0*dt = {v0 * dt:.3g} per "
-                    f"step; allowed v0*dt <= {limit:.4g} ({what}): lower dt or v0")
-        if turn is None and Dr * dt > MAX_DR_DT:
-            turn = (f"{where('Dr')} = {Dr:g} with dt = {dt:g} gives Dr*dt = {Dr * dt:.3g}; allowed Dr*dt <= "
-                    f"{MAX_DR_DT:g} (beyond it the discrete walk no longer has D0 = v0^2/(2 Dr)): lower dt or Dr")
+        step = step or step_problem(v0, dt, R0, K, modes, key=where("v0"))
+        turn = turn or turn_problem(Dr, dt, key=where("Dr"))
         if step and turn:
             break
     if step or turn:

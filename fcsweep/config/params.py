@@ -6,7 +6,7 @@ from __future__ import annotations
 from typing import Any
 
 from fcsweep.config.errors import ConfigError, as_int, as_real, show_value
-from fcsweep.model.parameters import INT_PARAMS, PARAMETERS, RANGES, SIGNS, STR_PARAMS
+from fcsweep.model.parameters import INT_PARAMS, PARAMETERS, RANGES, STR_PARAMS, value_problem
 
 #: Closed ranges of the numeric model parameters (density: lo <= rho < 1), from the table.
 PARAM_RANGES = RANGES
@@ -22,43 +22,24 @@ def allowed_values(name: str) -> str:
 
 
 def check_param(name: str, value, where: str) -> Any:
-    """Validate and canonicalise one model parameter value."""
+    """Validate and canonicalise one model parameter value: its type is read here (an
+    integer, a finite number, a string), everything else is the model's one check of a
+    value (:func:`fcsweep.model.parameters.value_problem`), which SimParams calls too."""
     key = f"{where}.{name}"
     if name in STR_PARAMS:
-        if not isinstance(value, str) or value not in STR_PARAMS[name]:
+        if not isinstance(value, str):
             raise ConfigError(f"{key} = {show_value(value)} is not allowed; choose one of {list(STR_PARAMS[name])}")
-        return value
-    if name == "N":
-        lo, hi = PARAM_RANGES["N"]
-        n = as_int(value, key, minimum=int(lo), maximum=int(hi), allowed=allowed_values("N"))
-        from fcsweep.model.lattice import lattice_side
-
-        try:
-            lattice_side(n)
-        except ValueError as exc:
-            raise ConfigError(f"{key} = {value!r}: {exc}") from None
-        return n
-    if name == "modes":
-        m = as_int(value, key, minimum=0, allowed=allowed_values("modes"))
-        if m == 1 or m > PARAM_RANGES["modes"][1]:
-            raise ConfigError(f"{key} = {m} is not allowed; modes is {PARAMETERS['modes'].allowed}")
-        return m
-    if name == "contour_points":
-        lo, hi = PARAM_RANGES["contour_points"]
-        return as_int(value, key, minimum=int(lo), maximum=int(hi), allowed=allowed_values("contour_points"))
-    x = as_real(value, key, allowed_values(name))
-    p = PARAMETERS[name]
-    if not p.sign_ok(x):
-        raise ConfigError(f"{key} = {value!r} is out of range; {name} must {SIGNS[p.sign][1]}")
-    return _check_range(name, x, key)
-
-
-def _check_range(name: str, value, key: str):
-    """``value`` if it lies in the declared range of ``name`` (unknown names pass)."""
-    p = PARAMETERS.get(name)
-    if p is None or p.range is None or p.in_range(value):
-        return value
-    raise ConfigError(f"{key} = {show_value(value)} is out of range; {p.range_text()}")
+        parsed = value
+    elif name in INT_PARAMS:
+        lo, hi = PARAM_RANGES[name]
+        parsed = as_int(value, key, minimum=0 if name == "modes" else int(lo), maximum=None if name == "modes"
+                        else int(hi), allowed=allowed_values(name))
+    else:
+        parsed = as_real(value, key, allowed_values(name))
+    problem = value_problem(name, parsed, key, show_value(value))
+    if problem:
+        raise ConfigError(problem)
+    return parsed
 
 
 def canon_value(name: str, value) -> Any:

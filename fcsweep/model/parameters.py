@@ -17,16 +17,18 @@ are reduced, so the CF ``units`` written to NetCDF are "1" for numbers.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
 from fcsweep.model.confinement import BOUNDARIES
 from fcsweep.model.integrators import DEFAULT_INTEGRATOR, INTEGRATORS
+from fcsweep.model.lattice import lattice_side
 from fcsweep.model.rates import QUADRATURES
 from fcsweep.model.sizes import SIZE_DISTRIBUTIONS
 
 __all__ = ["Parameter", "PARAMETERS", "DEFAULTS", "INT_PARAMS", "STR_PARAMS", "RANGES", "ID_OMITS_DEFAULT",
-           "INITIAL_STATES", "markdown_table", "core_exponent_problem",
+           "INITIAL_STATES", "markdown_table", "core_exponent_problem", "value_problem",
            "N_RULE", "MODES_RULE", "CONTOUR_POINTS_RULE"]
 
 #: The initial states a run may start from (the ``initial`` parameter, docs/model.md).
@@ -234,6 +236,40 @@ STR_PARAMS = {name: p.choices for name, p in PARAMETERS.items() if p.type is str
 ID_OMITS_DEFAULT: dict[str, Any] = {name: p.default for name, p in PARAMETERS.items() if p.id_omits_default}
 #: Bounds of the numeric parameters.
 RANGES: dict[str, tuple[float, float]] = {name: p.range for name, p in PARAMETERS.items() if p.range}
+
+
+def value_problem(name: str, value, key: str | None = None, shown: str | None = None) -> str:
+    """Why ``value`` cannot be parameter ``name`` ("" if it can): the row's choices, its
+    physical bound (:attr:`Parameter.sign`), its range and the rules of the integer
+    parameters (:data:`N_RULE`, :data:`MODES_RULE`, :data:`CONTOUR_POINTS_RULE`).
+
+    The one check of a single value, called by the config (:mod:`fcsweep.config`, after it
+    has read the value's type) and by :class:`fcsweep.simulation.SimParams`; ``key`` is how
+    the message names the value (``model.dt`` in a config, the name by default), ``shown``
+    how it writes the value (as the user wrote it; ``repr`` by default).
+    """
+    key = key or name
+    shown = repr(value) if shown is None else shown
+    p = PARAMETERS[name]
+    if p.type is str:
+        return "" if value in p.choices else f"{key} = {shown} is not allowed; choose one of {list(p.choices)}"
+    lo, hi = p.range
+    if name == "modes":
+        return "" if value == 0 or 2 <= value <= hi else f"{key} = {shown} is not allowed; modes is {MODES_RULE}"
+    if p.type is int:
+        if not lo <= value <= hi:
+            return f"{key} = {shown} is out of range; allowed {lo:g} <= {name} <= {hi:g}"
+        if name == "N":
+            try:
+                lattice_side(value)
+            except ValueError as exc:
+                return f"{key} = {shown}: {exc}"
+        return ""
+    if not math.isfinite(value):
+        return f"{key} = {shown} must be a finite number; {p.range_text()}"
+    if not p.sign_ok(value):
+        return f"{key} = {shown} is out of range; {name} must {SIGNS[p.sign][1]}"
+    return "" if p.in_range(value) else f"{key} = {shown} is out of range; {p.range_text()}"
 
 
 def core_exponent_problem(core_exponent, quadrature, modes, integrator) -> str:

@@ -240,3 +240,37 @@ def contour_points_problem(contour_points: int, modes: int) -> str:
     return (f"contour_points = {contour_points} cannot resolve modes = {modes}: K <= 2M aliases the highest "
             f"mode (its sampled tension is stiffer and dt limits no longer hold); allowed: contour_points >= "
             f"{2 * modes + 1}")
+
+
+#: Largest step length v0 dt as a fraction of the contour spacing 2 pi R0 / K ...
+MAX_STEP_PER_SPACING = 0.5
+#: ... and in units of R0 whatever K (rigid discs have no contour).
+MAX_STEP_PER_R0 = 0.1
+#: Largest D_r dt: the discrete walk has D = D0 (D_r dt / 2) coth(D_r dt / 2) = D0 (1 + (D_r dt)^2/12 + ...).
+MAX_DR_DT = 0.1
+
+
+def step_problem(v0, dt, R0, contour_points, modes, key: str = "v0") -> str:
+    """Why a step moves a cell too far ("" if it does not): ``v0 dt`` must stay within
+    ``min(MAX_STEP_PER_SPACING * 2 pi R0 / K, MAX_STEP_PER_R0 * R0)`` (the contour term only
+    for ``modes >= 2``; ``R0`` the smallest cell's radius): contacts are sampled on the
+    contour points, and a cell that jumps a large part of their spacing per step overshoots
+    its neighbours' contours.  ``key`` names v0 in the message (``grid.v0`` in a config)."""
+    limit, what = MAX_STEP_PER_R0 * R0, f"{MAX_STEP_PER_R0:g} R0"
+    if modes >= 2 and MAX_STEP_PER_SPACING * 2 * math.pi * R0 / contour_points < limit:
+        limit = MAX_STEP_PER_SPACING * 2 * math.pi * R0 / contour_points
+        what = f"half the contour spacing 2 pi R0/K with contour_points = {contour_points}"
+    if v0 * dt <= limit:
+        return ""
+    return (f"{key} = {v0:g} with dt = {dt:g} (R0 = {R0:g}) moves a cell v0*dt = {v0 * dt:.3g} per step; "
+            f"allowed v0*dt <= {limit:.4g} ({what}): lower dt or v0")
+
+
+def turn_problem(Dr, dt, key: str = "Dr") -> str:
+    """Why a step turns the polarity too far ("" if it does not): ``D_r dt <= MAX_DR_DT``;
+    beyond it the polarity decorrelates within a few steps and the discrete walk's D0
+    deviates by (D_r dt)^2 / 12 from v0^2 / (2 D_r)."""
+    if Dr * dt <= MAX_DR_DT:
+        return ""
+    return (f"{key} = {Dr:g} with dt = {dt:g} gives Dr*dt = {Dr * dt:.3g}; allowed Dr*dt <= {MAX_DR_DT:g} "
+            "(beyond it the discrete walk no longer has D0 = v0^2/(2 Dr)): lower dt or Dr")
