@@ -128,3 +128,75 @@ def drifting_frames(base, size, frames, step=1):
     for k in range(frames):
         d = span - abs((k * step) % (2 * span) - span) if span else 0
         yield base[d:d + size, d:d + size]
+
+
+def shape_frame(inside, extent, rng):
+    """A label frame holding one shape (label 1), Gauss-digitised: a pixel is in the cell when
+    its centre is (``inside(x, y)`` on arrays of pixel centres, the shape centred at 0), placed at
+    a random sub-pixel offset in a square of ``2 * extent + 8`` pixels."""
+    n = int(2 * extent) + 8
+    off = rng.uniform(0, 1, 2)
+    gx, gy = np.meshgrid(np.arange(n) + 0.5 - n / 2 - off[0], np.arange(n) + 0.5 - n / 2 - off[1])
+    return inside(gx, gy).astype(np.int32)
+
+
+def ellipse_frame(a, b, theta, rng):
+    """An ellipse of semi-axes ``a``, ``b`` (pixels) at angle ``theta``, and its exact q."""
+    def inside(x, y):
+        u, w = x * np.cos(theta) + y * np.sin(theta), -x * np.sin(theta) + y * np.cos(theta)
+        return (u / a) ** 2 + (w / b) ** 2 < 1
+
+    t = np.linspace(0, 2 * np.pi, 40001)[:-1]
+    P = np.hypot(a * np.sin(t), b * np.cos(t)).mean() * 2 * np.pi
+    return shape_frame(inside, max(a, b), rng), P / np.sqrt(np.pi * a * b)
+
+
+def polygon_frame(verts, rng):
+    """A polygon (vertices about 0, pixels), and its exact q."""
+    verts = np.asarray(verts, dtype=float)
+    path = MplPath(verts)
+
+    def inside(x, y):
+        return path.contains_points(np.stack([x.ravel(), y.ravel()], 1)).reshape(x.shape)
+
+    d = np.diff(verts, axis=0, append=verts[:1])
+    P = np.hypot(d[:, 0], d[:, 1]).sum()
+    A = 0.5 * abs(np.sum(verts[:, 0] * np.roll(verts[:, 1], -1) - np.roll(verts[:, 0], -1) * verts[:, 1]))
+    return shape_frame(inside, np.abs(verts).max(), rng), P / np.sqrt(A)
+
+
+def regular_polygon(n, R, theta=0.0):
+    """Vertices of a regular n-gon of circumradius R about 0."""
+    t = theta + 2 * np.pi * np.arange(n) / n
+    return np.stack([R * np.cos(t), R * np.sin(t)], 1)
+
+
+def voronoi_monolayer(size, cell_px, rng, jitter=0.35):
+    """A confluent monolayer of exact Voronoi polygons: seeds on a triangular lattice of spacing
+    ``cell_px`` (cells about ``cell_px`` pixels across) jittered by ``jitter`` spacings, each
+    pixel labelled with its nearest seed.  Returns the frame (size x size) and the exact q of each
+    label's polygon (index = label; NaN for cells whose polygon reaches within 2 px of the edge)."""
+    from scipy.spatial import Voronoi, cKDTree
+
+    s = cell_px
+    cols, rows = int(size / s) + 3, int(size / (s * np.sqrt(3) / 2)) + 3
+    xs, ys = np.meshgrid(np.arange(cols), np.arange(rows))
+    pts = np.stack([(xs + 0.5 * (ys % 2)).ravel() * s, ys.ravel() * s * np.sqrt(3) / 2], 1) - s
+    pts += rng.uniform(-jitter * s, jitter * s, pts.shape)
+    c = np.arange(size) + 0.5
+    yy, xx = np.meshgrid(c, c, indexing="ij")
+    frame = (cKDTree(pts).query(np.stack([xx.ravel(), yy.ravel()], 1))[1] + 1).reshape(size, size)
+    vor = Voronoi(pts)
+    q = np.full(len(pts) + 1, np.nan)
+    for i, reg in enumerate(vor.point_region):
+        r = vor.regions[reg]
+        if not r or -1 in r:
+            continue
+        v = vor.vertices[r]
+        if v.min() < 2 or v.max() > size - 2:
+            continue
+        v = v[np.argsort(np.arctan2(v[:, 1] - pts[i, 1], v[:, 0] - pts[i, 0]))]
+        d = np.diff(v, axis=0, append=v[:1])
+        A = 0.5 * abs(np.sum(v[:, 0] * np.roll(v[:, 1], -1) - np.roll(v[:, 0], -1) * v[:, 1]))
+        q[i + 1] = np.hypot(d[:, 0], d[:, 1]).sum() / np.sqrt(A)
+    return frame.astype(np.int32), q

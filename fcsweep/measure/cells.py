@@ -6,13 +6,25 @@ Coordinates: the pixel in row ``r``, column ``c`` has its centre at
 The sub-pixel contour of a cell is the marching-squares line of its binary mask at level
 1/2 (``contourpy``).  Its length (``perimeter_contour``) overestimates the perimeter by a
 few per cent at any resolution: the line runs through the midpoints of pixel edges and
-follows the staircase of the mask at the scale of one pixel, so the error does not vanish
-as the cell gets larger.  The reported perimeter is that of a least-squares fit of
+follows the staircase of the mask at the scale of one pixel.  Two estimators remove that
+bias (:mod:`fcsweep.measure.perimeter`): the least-squares fit of
 ``R(phi) = c_0 + sum_{n=1..M} (A_n cos n phi + B_n sin n phi)`` about the centroid to the
-contour's vertices, weighted by the contour length each vertex stands for (the vertex
-density of a pixel contour depends on the direction of the boundary).  The fit's length
-and area give ``q = P / sqrt(A)``, which is independent of the units.  Bias of both
-perimeters on cells rendered from the model: docs/measure.md.
+contour's vertices, weighted by the contour length each vertex stands for
+(``perimeter_fit``, ``q_fit = P_fit / sqrt(A_fit)``), exact for smooth star-shaped cells;
+and a corner-preserving polygon of the blurred outline, exact for polygons and close for
+elongated cells.  ``perimeter`` and ``q = P / sqrt(A)`` (``A`` the mask area) are the
+polygon's when the cell has corners (the blurred outline's peak curvature reaches
+:data:`CORNER_CURVATURE` and the cell's equivalent radius :data:`CORNER_MIN_RADIUS_PX`) or is
+not star-shaped, else the fit's; the blurred outline's length with its curvature correction
+when neither applies (``q_estimator`` 1 fit, 2 polygon, 3 blurred).  ``q_err`` is the resolution error of ``q``: the per-cell rms
+error of the estimator on the validation shapes at the cell's size (:data:`Q_ERR_COEF`
+divided by the equivalent radius in pixels).  Bias and errors: docs/measure.md.
+
+Cells that cannot be measured keep their centroid and area but no shape (NaN) and a
+reason in ``shape_flag`` (:data:`SHAPE_FLAGS`): cut by the image edge, split (the label's
+pixels form several 8-connected pieces), a sliver (fewer than :data:`MIN_AREA_PX` pixels or
+no inscribed disc of radius :data:`MIN_INSCRIBED_RADIUS_PX` pixels), or unresolved (no
+outline).  The frame statistics leave them out of the means.
 
 The mode amplitudes ``a_n = A_n / R0_i``, ``b_n = B_n / R0_i`` (``n = 2..M``,
 ``R0_i = sqrt(A_i / pi)`` with ``A_i`` the mask area) are in the lab frame (``phi``
@@ -27,10 +39,33 @@ import contourpy
 import numpy as np
 from scipy import ndimage
 
-__all__ = ["measure_cells", "CELL_FIELDS", "fit_radius", "STAR_TOLERANCE", "FIT_POINTS"]
+from fcsweep.measure.perimeter import blurred_line, blurred_perimeter, peak_curvature, polygon_perimeter
+
+__all__ = ["measure_cells", "CELL_FIELDS", "fit_radius", "STAR_TOLERANCE", "FIT_POINTS", "SHAPE_FLAGS",
+           "ESTIMATORS", "MIN_AREA_PX", "MIN_INSCRIBED_RADIUS_PX", "Q_ERR_COEF", "CORNER_CURVATURE",
+           "CORNER_MIN_RADIUS_PX"]
 
 #: Per-cell outputs of :func:`measure_cells` (besides the mode arrays ``a``, ``b``, ``c_abs``).
-CELL_FIELDS = ("label", "x", "y", "area", "perimeter_contour", "perimeter", "q", "star_shaped", "edge_cut")
+CELL_FIELDS = ("label", "x", "y", "area", "perimeter_contour", "perimeter_fit", "q_fit", "perimeter", "q", "q_err",
+               "q_estimator", "shape_flag", "star_shaped", "edge_cut")
+#: ``shape_flag`` codes: why a cell has no shape (0: it has one).
+SHAPE_FLAGS = {0: "measured", 1: "edge_cut", 2: "split", 3: "sliver", 4: "unresolved"}
+#: ``q_estimator`` codes (0: none).
+ESTIMATORS = {0: "none", 1: "fit", 2: "polygon", 3: "blurred"}
+#: Cells of fewer pixels are slivers.
+MIN_AREA_PX = 20
+#: Cells without an inscribed disc of this radius (pixels, from the distance transform) are slivers.
+MIN_INSCRIBED_RADIUS_PX = 2.5
+#: A cell has corners when the blurred outline's peak curvature (1 / px) reaches this
+#: (:func:`fcsweep.measure.perimeter.peak_curvature`; discs of radius >= 5 px stay below 0.41, regular
+#: hexagons and exact Voronoi cells of >= 20 px across mostly reach 0.44 or more, ellipses of aspect >= 4
+#: peak at their tips).
+CORNER_CURVATURE = 0.44
+#: ... and when its equivalent radius sqrt(A / pi) is at least this many pixels (smaller cells: the fit).
+CORNER_MIN_RADIUS_PX = 8.0
+#: Per-cell rms relative error of q times the equivalent radius sqrt(A / pi) in pixels, per estimator
+#: (measured on the validation shapes, docs/measure.md): ``q_err = q * Q_ERR_COEF[k] / R_px``.
+Q_ERR_COEF = {1: 0.06, 2: 0.15, 3: 0.10}
 #: Total backward turn (radians) of the contour's polar angle about the centroid above which a
 #: cell is not star-shaped (a pixel contour of a star-shaped cell turns back by far less).
 STAR_TOLERANCE = 0.05
@@ -96,38 +131,60 @@ def _outline(mask: np.ndarray):
     return lines
 
 
-def measure_cells(frame: np.ndarray, pixel_size=(1.0, 1.0), modes: int = 6) -> dict:
+def _empty(n: int, modes: int) -> dict:
+    out = {f: np.full(n, np.nan) for f in CELL_FIELDS}
+    out["star_shaped"] = np.zeros(n, dtype=bool)
+    out["edge_cut"] = np.zeros(n, dtype=bool)
+    out["q_estimator"] = np.zeros(n, dtype=np.int8)
+    out["shape_flag"] = np.zeros(n, dtype=np.int8)
+    for f in ("a", "b", "c_abs"):
+        out[f] = np.full((n, modes - 1), np.nan)
+    return out
+
+
+def _unmeasurable(mask: np.ndarray) -> int:
+    """0, or the :data:`SHAPE_FLAGS` code of a split label or a sliver."""
+    if ndimage.label(mask, structure=np.ones((3, 3), dtype=bool))[1] > 1:
+        return 2
+    if mask.sum() < MIN_AREA_PX or ndimage.distance_transform_edt(np.pad(mask, 1)).max() < MIN_INSCRIBED_RADIUS_PX:
+        return 3
+    return 0
+
+
+def measure_cells(frame: np.ndarray, pixel_size=(1.0, 1.0), modes: int = 6, slices=None) -> dict:
     """Measure every cell of one label frame.
 
     Parameters
     ----------
     frame : ndarray of int, shape (Y, X)
-        0 = background, 1..n = cells.
+        0 = background, 1..n = cells (consecutive labels: :func:`fcsweep.measure.readers.relabel`).
     pixel_size : (px, py)
         Pixel width and height in length units.
     modes : int
         Highest Fourier mode M of the fit (>= 2).
+    slices : list, optional
+        ``scipy.ndimage.find_objects(frame)``, if already computed.
 
     Returns
     -------
     dict
         Arrays over the cells present, ordered by label: ``label``, ``x``, ``y`` (centroid),
-        ``area``, ``perimeter_contour`` (marching squares), ``perimeter`` (fit), ``q``
-        (fit), ``star_shaped``, ``edge_cut`` (the mask touches the image edge: its shape
-        is cut, so its shape fields are NaN), and ``a``, ``b``, ``c_abs`` of shape
-        (cells, M - 1) for modes 2..M.
+        ``area``, ``perimeter_contour`` (marching squares), ``perimeter_fit`` and ``q_fit``
+        (the M-mode fit), ``perimeter``, ``q``, ``q_err`` and ``q_estimator`` (the chosen
+        estimator, module docstring), ``shape_flag`` (:data:`SHAPE_FLAGS`),
+        ``star_shaped``, ``edge_cut`` (the mask touches the image edge: its shape is cut),
+        and ``a``, ``b``, ``c_abs`` of shape (cells, M - 1) for modes 2..M.  Shape fields
+        are NaN where ``shape_flag`` != 0.
     """
     px, py = float(pixel_size[0]), float(pixel_size[1])
+    scale = (px, py)
     ny, nx = frame.shape
-    slices = ndimage.find_objects(frame)
+    if slices is None:
+        slices = ndimage.find_objects(frame)
     labels = [k + 1 for k, s in enumerate(slices) if s is not None]
     n = len(labels)
-    out = {f: np.full(n, np.nan) for f in CELL_FIELDS}
+    out = _empty(n, modes)
     out["label"] = np.asarray(labels, dtype=np.int64)
-    out["star_shaped"] = np.zeros(n, dtype=bool)
-    out["edge_cut"] = np.zeros(n, dtype=bool)
-    for f in ("a", "b", "c_abs"):
-        out[f] = np.full((n, modes - 1), np.nan)
     for c, lab in enumerate(labels):
         sr, sc = slices[lab - 1]
         mask = frame[sr, sc] == lab
@@ -138,10 +195,13 @@ def measure_cells(frame: np.ndarray, pixel_size=(1.0, 1.0), modes: int = 6) -> d
         out["y"][c] = (rows.mean() + sr.start + 0.5) * py
         cut = sr.start == 0 or sc.start == 0 or sr.stop == ny or sc.stop == nx
         out["edge_cut"][c] = cut
-        if cut:
-            continue
-        lines = _outline(np.pad(mask, 1))
-        if not lines:
+        flag = 1 if cut else _unmeasurable(mask)
+        lines = _outline(np.pad(mask, 1)) if not flag else []
+        blurred = blurred_line(mask) if lines else None
+        if not flag and (not lines or blurred is None):
+            flag = 4
+        out["shape_flag"][c] = flag
+        if flag:
             continue
         # padded index (k) -> pixel k - 1 of the crop, centre at + 1/2
         line = lines[0]
@@ -150,11 +210,27 @@ def measure_cells(frame: np.ndarray, pixel_size=(1.0, 1.0), modes: int = 6) -> d
         closing = np.hypot(*(np.array([xs[0] - xs[-1], ys[0] - ys[-1]])))
         out["perimeter_contour"][c] = np.hypot(np.diff(xs), np.diff(ys)).sum() + closing
         coef, perim, area_fit, star = fit_radius(xs - out["x"][c], ys - out["y"][c], modes)
-        out["star_shaped"][c] = star and len(lines) == 1
-        out["perimeter"][c] = perim
-        out["q"][c] = perim / np.sqrt(area_fit) if area_fit > 0 else np.nan
+        star = star and len(lines) == 1
+        out["star_shaped"][c] = star
+        out["perimeter_fit"][c] = perim
+        out["q_fit"][c] = perim / np.sqrt(area_fit) if area_fit > 0 else np.nan
         R0 = np.sqrt(out["area"][c] / np.pi)
         out["a"][c] = coef[3::2] / R0
         out["b"][c] = coef[4::2] / R0
+        corners = area_px >= np.pi * CORNER_MIN_RADIUS_PX ** 2 and peak_curvature(blurred) >= CORNER_CURVATURE
+        p_poly = polygon_perimeter(blurred, scale=scale)[0] if (corners or not star) else np.nan
+        if star and np.isfinite(perim) and not corners:
+            est, p = 1, perim
+        elif np.isfinite(p_poly):
+            est, p = 2, p_poly
+        elif star and np.isfinite(perim):
+            est, p = 1, perim
+        else:
+            est, p = 3, blurred_perimeter(blurred, scale=scale)
+        out["q_estimator"][c] = est
+        out["perimeter"][c] = p
+        out["q"][c] = p / np.sqrt(out["area"][c])
+        out["q_err"][c] = out["q"][c] * Q_ERR_COEF[est] / np.sqrt(area_px / np.pi)
     out["c_abs"] = np.hypot(out["a"], out["b"])
     return out
+
