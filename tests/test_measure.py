@@ -337,7 +337,7 @@ def test_readers_give_the_same_dataset(stack, tmp_path):
     tifffile = pytest.importorskip("tifffile")
     tifffile.imwrite(tmp_path / "s.tif", stack)  # contiguous: memory-mapped
     tifffile.imwrite(tmp_path / "z.tif", stack, compression="zlib")  # compressed: page by page
-    tifffile.imwrite(tmp_path / "ij.tif", stack, imagej=True)
+    tifffile.imwrite(tmp_path / "ij.tif", stack, imagej=True, metadata={"axes": "TYX"})
     (tmp_path / "png").mkdir()
     (tmp_path / "seg").mkdir()
     for k, fr in enumerate(stack):
@@ -366,8 +366,10 @@ def test_time_stamps(stack):
     assert list(ds.time.values) == [0.0, 2.0, 3.0] and np.all(np.isnan(ds.msd.values))
     even = measure(list(stack) + [stack[0]], times=[1.0, 2.0, 3.0])
     assert even.msd.values[0] == 0 and np.isfinite(even.msd.values[1])
-    with pytest.raises(MeasureInputError, match="increasing"):
-        measure(stack, times=[1.0, 1.0])
+    with pytest.raises(MeasureInputError, match="must increase from frame to frame, got 0,2,1: frame 2 is at 1"):
+        measure(stack, times=[0.0, 2.0, 1.0])
+    with pytest.raises(MeasureInputError, match="3 time stamps given for 2 frames"):
+        measure(stack, times=[0.0, 2.0, 3.0])
 
 
 def test_calibration_from_imagej_and_ome_metadata(stack, tmp_path):

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+import warnings
 from pathlib import Path
 
 from fcsweep.measure.dataset import measure_to_file
@@ -36,18 +38,21 @@ def parse_times(text: str | None):
     try:
         return [float(t) for t in text.split(",")]
     except ValueError:
-        raise MeasureInputError(f"--times must be comma-separated numbers, got {text!r}") from None
+        raise MeasureInputError(f"--times must be comma-separated numbers, one per frame, increasing "
+                                f"(e.g. 0,2.5,5), got {text!r}") from None
 
 
 def measure_to_dir(images, out, *, pixel_size: str | None = None, frame_interval: float | None = None,
                    length_unit: str | None = None, time_unit: str | None = None, times: str | None = None,
                    modes: int = 6,
                    percolation_threshold: float = 0.5, v0: float | None = None, Dr: float | None = None,
-                   neighbours: str = "voronoi") -> Path:
+                   neighbours: str = "voronoi", label_binary: bool = False) -> Path:
     """Measure ``images`` (paths) and write ``out/measure.nc``, streaming
     (:func:`fcsweep.measure.dataset.measure_to_file`); None options come from the
     TIFF's metadata or default to 1 (:func:`fcsweep.measure.calibration.resolve`).
     Without images, the built-in :data:`EXAMPLE` (lengths in R0, times in model units).
+    Warnings of the measurement (e.g. a contact graph that leaves most cells alone) are
+    written to stderr as one line each, ``warning: ...``.
 
     Raises
     ------
@@ -61,7 +66,13 @@ def measure_to_dir(images, out, *, pixel_size: str | None = None, frame_interval
     if not images:
         images = [EXAMPLE]
         pixel_size = pixel_size or EXAMPLE_PIXEL_SIZE
-    return measure_to_file(list(images), out, parse_pixel_size(pixel_size), frame_interval, modes=modes,
-                           length_unit=length_unit, time_unit=time_unit, times=parse_times(times),
-                           percolation_threshold=percolation_threshold, v0=v0, Dr=Dr, neighbours=neighbours,
-                           attrs={"source": " ".join(str(p) for p in images)})
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", UserWarning)
+        path = measure_to_file(list(images), out, parse_pixel_size(pixel_size), frame_interval, modes=modes,
+                               length_unit=length_unit, time_unit=time_unit, times=parse_times(times),
+                               percolation_threshold=percolation_threshold, v0=v0, Dr=Dr, neighbours=neighbours,
+                               label_binary=label_binary, attrs={"source": " ".join(str(p) for p in images)})
+    for w in caught:
+        if issubclass(w.category, UserWarning):
+            print(f"warning: {w.message}", file=sys.stderr)
+    return path

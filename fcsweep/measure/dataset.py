@@ -15,6 +15,7 @@ The frames are measured one at a time and their per-cell results spooled to disk
 from __future__ import annotations
 
 import datetime as _dt
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -26,7 +27,7 @@ from fcsweep.io.sweepdir import atomic_write
 from fcsweep.measure.calibration import resolve
 from fcsweep.measure.cells import measure_cells
 from fcsweep.measure.frames import PERCOLATION_THRESHOLD, frame_statistics
-from fcsweep.measure.readers import MeasureInputError, iter_frames
+from fcsweep.measure.readers import MeasureInputError, iter_frames, relabel
 from fcsweep.measure.store import CellSpool, append_cell_variables
 from fcsweep.measure.contacts import contact_graph
 from fcsweep.measure.labels import movie_labels
@@ -48,8 +49,16 @@ VARIABLES = {
     "y": (_C, "L", "centroid y (row direction) of the cell's mask"),
     "area": (_C, "L2", "area of the cell's mask"),
     "perimeter_contour": (_C, "L", "length of the marching-squares contour of the mask (biased high)"),
-    "perimeter": (_C, "L", "perimeter of the least-squares fit of R(phi) to the contour"),
-    "q": (_C, "1", "shape index P / sqrt(A) of the fitted contour"),
+    "perimeter_fit": (_C, "L", "perimeter of the least-squares fit of R(phi) with M modes to the contour"),
+    "q_fit": (_C, "1", "shape index P / sqrt(A) of the fitted R(phi) (rounds corners, fails on elongated cells)"),
+    "perimeter": (_C, "L", "perimeter: the fit's for smooth cells, the corner-preserving polygon's for cells with "
+                           "corners or not star-shaped (q_estimator)"),
+    "q": (_C, "1", "shape index P / sqrt(A) with A the mask area (docs/measure.md: How q is measured)"),
+    "q_err": (_C, "1", "resolution error of q: the estimator's per-cell rms error on the validation shapes at the "
+                       "cell's size"),
+    "q_estimator": (_C, "1", "perimeter estimator of q: 1 fit, 2 polygon, 3 blurred outline, 0 none"),
+    "shape_flag": (_C, "1", "0 measured; why the cell has no shape: 1 cut by the image edge, 2 split label, "
+                            "3 sliver, 4 unresolved"),
     "a": (_M, "1", "Fourier coefficient a_n of R(phi) about the centroid, lab frame, in units of sqrt(A / pi)"),
     "b": (_M, "1", "Fourier coefficient b_n of R(phi) about the centroid, lab frame, in units of sqrt(A / pi)"),
     "c_abs": (_M, "1", "rotation-invariant mode amplitude sqrt(a_n^2 + b_n^2)"),
@@ -59,9 +68,12 @@ VARIABLES = {
     "defect": (_C, "1", "1 defect (n_sides != 6), 0 not, -1 not classified (Voronoi cell reaches the edge)"),
     "n_cells": (_T, "1", "cells in the frame"),
     "n_edge_cut": (_T, "1", "cells cut by the image edge, left out of the shape statistics"),
+    "n_split": (_T, "1", "cells whose label is split into separate pieces, left out of the shape statistics"),
+    "n_sliver": (_T, "1", "slivers (too small or too thin to measure), left out of the shape statistics"),
+    "n_unresolved": (_T, "1", "cells without a resolved outline, left out of the shape statistics"),
     "n_boundary": (_T, "1", "cells whose Voronoi cell reaches the field-of-view edge, neither defect nor not"),
     "n_classified": (_T, "1", "cells classified as defect or not"),
-    "q_mean": (_T, "1", "mean shape index over the cells not cut by the image edge"),
+    "q_mean": (_T, "1", "mean shape index over the measured cells (shape_flag 0)"),
     "q_mean_err": (_T, "1", "standard error of q_mean over the cells of the frame"),
     "q_frac_above": (_T, "1", f"fraction of cells with q > q* = {Q_STAR}"),
     "rho_d": (_T, "1", "defect fraction among the classified cells (Voronoi of the centroids, open boundaries)"),
@@ -113,7 +125,21 @@ _CAGE = ("neighbour_spacing", "cage_msd_ratio", "cage_msd_ratio_err", "cage_brok
 _MOVIE = ("msd", "n_tracked", "D_s", "D_s_err", "D_s_diffusive", "D_eff", "D_eff_err", *_CAGE,
           *(f"{n}_movie{e}" for n in AVERAGED for e in ("", "_err")))
 
-_CELL_INT = {"label": 0, "n_sides": -1, "defect": -1}
+_CELL_INT = {"label": 0, "n_sides": -1, "defect": -1, "q_estimator": -1, "shape_flag": -1}
+
+
+def _check_times(times) -> None:
+    """Time stamps must be finite and increase from frame to frame (their count is checked after the frames)."""
+    if times is None:
+        return
+    t = np.asarray(times, dtype=float).ravel()
+    if not np.all(np.isfinite(t)):
+        raise MeasureInputError(f"--times must be finite numbers, got {','.join(f'{v:g}' for v in t)}")
+    bad = np.flatnonzero(np.diff(t) <= 0)
+    if bad.size:
+        k = int(bad[0]) + 1
+        raise MeasureInputError(f"--times must increase from frame to frame, got {','.join(f'{v:g}' for v in t)}: "
+                                f"frame {k} is at {t[k]:g}, not after frame {k - 1} at {t[k - 1]:g}")
 
 
 def _pixel_pair(pixel_size) -> tuple[float, float]:
@@ -127,7 +153,7 @@ def _pixel_pair(pixel_size) -> tuple[float, float]:
 def measure(labels, pixel_size=None, frame_interval=None, *, modes: int = 6, length_unit: str | None = None,
             time_unit: str | None = None, times=None, percolation_threshold: float = PERCOLATION_THRESHOLD,
             track: bool = True, v0: float | None = None, Dr: float | None = None,
-            neighbours: str = "voronoi", scratch=None) -> xr.Dataset:
+            neighbours: str = "voronoi", scratch=None, label_binary: bool = False) -> xr.Dataset:
     """Measure a segmented image or movie of a cell monolayer.
 
     Parameters
@@ -162,6 +188,9 @@ def measure(labels, pixel_size=None, frame_interval=None, *, modes: int = 6, len
     v0, Dr : float, optional
         Self-propulsion speed (length / time) and rotational diffusion (1 / time) of the
         cells, if known: ``Dr`` selects the active-Brownian fit of D_s, both give ``D_eff``.
+    label_binary : bool
+        Label a binary mask (one value in separate pieces) by its 8-connected pieces; by default
+        it is refused (:class:`MeasureInputError`).
     scratch : path-like, optional
         Directory for the temporary spool of the per-cell results (default: the system's
         temporary directory); about 0.2 kB per cell and frame, removed on return.
@@ -178,7 +207,7 @@ def measure(labels, pixel_size=None, frame_interval=None, *, modes: int = 6, len
     """
     with _Run(labels, pixel_size, frame_interval, modes=modes, length_unit=length_unit, time_unit=time_unit,
               times=times, percolation_threshold=percolation_threshold, track=track, v0=v0, Dr=Dr,
-              neighbours=neighbours, scratch=scratch) as run:
+              neighbours=neighbours, scratch=scratch, label_binary=label_binary) as run:
         ds = run.small.assign({name: run.cell_variable(name) for name in run.cell_names})
     return ds[[n for n in VARIABLES if n in ds] + [n for n in ds.data_vars if n not in VARIABLES]]
 
@@ -189,16 +218,18 @@ class _Run:
     variables (:attr:`cell_names`), which :meth:`cell_variable` assembles."""
 
     def __init__(self, labels, pixel_size, frame_interval, *, modes, length_unit, time_unit, times,
-                 percolation_threshold, track, v0, Dr, neighbours, scratch):
+                 percolation_threshold, track, v0, Dr, neighbours, scratch, label_binary=False):
         if int(modes) < 2:
             raise MeasureInputError(f"modes must be >= 2, got {modes}")
         if neighbours not in ("voronoi", "contact"):
             raise MeasureInputError(f"neighbours must be 'voronoi' or 'contact', got {neighbours!r}")
         if frame_interval is not None and not (np.isfinite(frame_interval) and frame_interval > 0):
             raise MeasureInputError(f"frame interval must be positive, got {frame_interval!r}")
+        _check_times(times)
         cal = resolve(labels, None if pixel_size is None else _pixel_pair(pixel_size), frame_interval, length_unit,
                       time_unit)
         self.modes = int(modes)
+        self.label_binary = bool(label_binary)
         self.cell_names = [n for n, (dims, _, _) in VARIABLES.items() if dims in (_C, _M)]
         self.spool = CellSpool({n: (self._dtype(n), self._tail(n)) for n in self.cell_names}, scratch)
         try:
@@ -215,6 +246,8 @@ class _Run:
 
     @staticmethod
     def _dtype(name):
+        if name == "label":
+            return np.int64
         return np.int32 if name in _CELL_INT else np.float64
 
     def _tail(self, name):
@@ -233,9 +266,15 @@ class _Run:
         per_frame, shape = [], None
         prev, prev_tracks, next_id = None, {}, 0
         prev_bonds = prev_index = None
-        for _, frame in iter_frames(labels):
+        warned = False
+        for where, frame in iter_frames(labels, label_binary=self.label_binary):
             shape = frame.shape
-            cells = measure_cells(frame, (px, py), modes)
+            frame, originals = relabel(frame)
+            try:
+                cells = measure_cells(frame, (px, py), modes)
+            except MemoryError:
+                raise MeasureInputError(f"{where}: out of memory measuring a frame of {shape[0]} x {shape[1]} "
+                                        "pixels") from None
             if track:
                 cells["index"], next_id = link_frames(prev, prev_tracks, frame, cells["label"], next_id)
                 prev, prev_tracks = frame, dict(zip(cells["label"].tolist(), cells["index"].tolist()))
@@ -243,12 +282,22 @@ class _Run:
                 cells["index"] = np.arange(len(cells["label"]))
                 next_id = max(next_id, len(cells["label"]))
             graph = contact_graph(frame, cells["label"]) if neighbours == "contact" else None
+            if graph is not None and not warned:
+                alone = int(np.sum(graph.interior & (graph.n_sides == 0)))
+                if alone > 0.5 * max(int(graph.interior.sum()), 1):
+                    warned = True
+                    warnings.warn(f"{where}: --neighbours contact leaves {alone} of {int(graph.interior.sum())} "
+                                  "classified cells without a touching neighbour (gaps between the masks?): they "
+                                  "count as defects; the Voronoi rule (the default) does not need touching masks",
+                                  UserWarning, stacklevel=2)
             stats = frame_statistics(cells, (0.0, shape[1] * px, 0.0, shape[0] * py), percolation_threshold, graph)
             cells.update(n_sides=stats.pop("n_sides"), defect=stats.pop("defect"))
             bonds = stats.pop("bonds")
             stats["bond_change_fraction"] = bond_changes(prev_bonds, prev_index, bonds, cells["index"]) \
                 if (track and prev_bonds is not None) else np.nan
             prev_bonds, prev_index = bonds, cells["index"]
+            if originals is not None:
+                cells["label"] = originals[cells["label"] - 1]
             self.spool.append(cells, cells["index"])
             per_frame.append(stats)
         del prev, frame
@@ -257,8 +306,8 @@ class _Run:
             t = np.arange(T) * float(frame_interval)
         else:
             t = np.asarray(times, dtype=float)
-            if t.shape != (T,) or not np.all(np.diff(t) > 0):
-                raise MeasureInputError(f"times must be {T} increasing time stamps, got shape {t.shape}")
+            if t.shape != (T,):
+                raise MeasureInputError(f"--times: {t.size} time stamps given for {T} frames; give one per frame")
         self.ncell = ncell = next_id
         units = {"L": length_unit, "L2": f"{length_unit}2" if length_unit != "1" else "1", "T": time_unit, "1": "1"}
         units["L2/T"] = " ".join([u for u in (units["L2"], f"{time_unit}-1") if u not in ("1", "1-1")]) or "1"
@@ -380,7 +429,7 @@ def _stream(labels, out_dir, pixel_size, frame_interval, attrs, options) -> Path
 
 def _run_options(options: dict) -> dict:
     defaults = dict(modes=6, length_unit=None, time_unit=None, times=None, percolation_threshold=PERCOLATION_THRESHOLD,
-                    track=True, v0=None, Dr=None, neighbours="voronoi", scratch=None)
+                    track=True, v0=None, Dr=None, neighbours="voronoi", scratch=None, label_binary=False)
     unknown = set(options) - set(defaults)
     if unknown:
         raise TypeError(f"unknown options {sorted(unknown)}")

@@ -3,7 +3,9 @@
 The names are those of the simulated datasets where they exist (docs/measure.md):
 
 - ``q_mean``, ``q_mean_err`` (standard error over the cells of the frame),
-  ``q_frac_above`` (fraction with q > 3.81) over the cells not cut by the image edge;
+  ``q_frac_above`` (fraction with q > 3.81) over the measured cells (``shape_flag`` 0: not
+  cut by the image edge, not split, not a sliver); ``n_split``, ``n_sliver``,
+  ``n_unresolved`` count the others;
 - ``rho_d``: defects / classified cells, on the Voronoi of the centroids with open
   boundaries (:func:`fcsweep.analysis.voronoi_open.open_voronoi`): a cell whose Voronoi
   region reaches the edge of the field of view is neither defect nor non-defect;
@@ -24,14 +26,13 @@ from scipy.sparse.csgraph import connected_components
 
 from fcsweep.analysis.voronoi import defect_mask
 from fcsweep.analysis.voronoi_open import open_voronoi
+from fcsweep.model.settings import PERCOLATION_THRESHOLD
 from fcsweep.model.shape import Q_STAR
 
 __all__ = ["frame_statistics", "FRAME_FIELDS", "PERCOLATION_THRESHOLD"]
 
-#: rho_d above which a frame is percolated (the simulation's default ``analysis.percolation_threshold``).
-PERCOLATION_THRESHOLD = 0.5
 #: Per-frame outputs of :func:`frame_statistics`.
-FRAME_FIELDS = ("n_cells", "n_edge_cut", "n_boundary", "n_classified", "q_mean", "q_mean_err", "q_frac_above",
+FRAME_FIELDS = ("n_cells", "n_edge_cut", "n_split", "n_sliver", "n_unresolved", "n_boundary", "n_classified", "q_mean", "q_mean_err", "q_frac_above",
                 "rho_d", "n_defects", "n_clusters", "largest_cluster_fraction", "percolated", "spanning", "psi6")
 
 
@@ -69,10 +70,12 @@ def frame_statistics(cells: dict, bounds, threshold: float = PERCOLATION_THRESHO
     """
     pos = np.stack([cells["x"], cells["y"]], axis=1)
     n = pos.shape[0]
-    q = cells["q"][~cells["edge_cut"]]
+    flag = cells["shape_flag"]
+    q = cells["q"][flag == 0]
     q = q[np.isfinite(q)]
     out = dict.fromkeys(FRAME_FIELDS, np.nan)
-    out.update(n_cells=n, n_edge_cut=int(cells["edge_cut"].sum()))
+    out.update(n_cells=n, n_edge_cut=int(cells["edge_cut"].sum()), n_split=int(np.sum(flag == 2)),
+               n_sliver=int(np.sum(flag == 3)), n_unresolved=int(np.sum(flag == 4)))
     if q.size:
         out.update(q_mean=float(q.mean()), q_frac_above=float(np.mean(q > Q_STAR)),
                    q_mean_err=float(q.std(ddof=1) / np.sqrt(q.size)) if q.size > 1 else np.nan)

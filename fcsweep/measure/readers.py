@@ -3,7 +3,13 @@ integer arrays and iterators of frames, each checked as it is read.
 
 A label image is a 2-D integer array, 0 = background and 1 ... n = cells.  Frames are
 yielded one at a time, so a long stack is never held in memory whole.  Broken input
-raises :class:`MeasureInputError` with one line that says what is wrong and where.
+raises :class:`MeasureInputError` with one line that says what is wrong and where: a file
+that its reader cannot read (truncated, corrupt, empty, another format under the suffix),
+a structured or object array, a colour image (a TIFF with a sample or channel axis, a
+Y x X x 3 or 4 array, an RGB PNG), a binary mask (one label value in several separate
+pieces: label it first, or ``label_binary=True``), a frame too large for the memory
+(:data:`BYTES_PER_PIXEL`).  Label values far above the number of cells are renumbered
+(:func:`relabel`), so memory and time follow the cells, not the largest label.
 
 Cellpose's ``_seg.npy`` is a pickled dict; it is read with a restricted unpickler that
 builds only numpy arrays, dtypes and scalars and plain containers, so a crafted file
@@ -20,11 +26,13 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["MeasureInputError", "iter_frames", "read_seg_npy", "check_frame", "available_memory", "tiff_metadata",
-           "FRAME_MEMORY_FACTOR", "IMAGE_SUFFIXES"]
+           "relabel", "BYTES_PER_PIXEL", "IMAGE_SUFFIXES", "RELABEL_ABOVE"]
 
-#: Bytes of work memory per pixel the measurement of one frame needs, as a multiple of the
-#: int64 label frame (the frame, the cropped masks and the contour arrays).
-FRAME_MEMORY_FACTOR = 3
+#: Bytes of work memory per pixel the measurement of one frame needs (measured ~52 at 4096^2:
+#: the int64 frame and the previous one, the tracking overlap, the contact pairs, the relabelling).
+BYTES_PER_PIXEL = 56
+#: Frames whose largest label exceeds this are renumbered 1..n before they are measured.
+RELABEL_ABOVE = 1 << 16
 #: File suffixes read from a directory, in the order they are tried.
 IMAGE_SUFFIXES = (".tif", ".tiff", ".png", ".npy")
 
@@ -57,14 +65,37 @@ def available_memory() -> int:
 
 
 def _check_size(shape, where: str) -> None:
-    need = int(np.prod(shape, dtype=np.float64)) * 8 * FRAME_MEMORY_FACTOR
+    need = int(np.prod(shape, dtype=np.float64)) * BYTES_PER_PIXEL
     have = available_memory()
     if need > have:
         raise MeasureInputError(f"{where}: a frame of {shape[0]} x {shape[1]} pixels needs about "
                                 f"{need / 2**30:.1f} GiB to measure, only {have / 2**30:.1f} GiB is available")
 
 
-def check_frame(frame, where: str, shape=None) -> np.ndarray:
+def relabel(frame: np.ndarray):
+    """``(frame, originals)``: labels renumbered 1..n in order of value and the original label of
+    each new one (index new - 1); ``originals`` is None when the largest label is at most
+    :data:`RELABEL_ABOVE` (the frame is returned as it is)."""
+    if frame.size == 0 or int(frame.max()) <= RELABEL_ABOVE:
+        return frame, None
+    values, inverse = np.unique(frame, return_inverse=True)
+    inverse = inverse.reshape(frame.shape).astype(np.int64, copy=False)
+    if values[0] == 0:
+        return inverse, values[1:].astype(np.int64)
+    return inverse + 1, values.astype(np.int64)
+
+
+def _is_binary(arr: np.ndarray) -> bool:
+    """One nonzero value in several 8-connected pieces: a binary mask, not labels."""
+    from scipy import ndimage
+
+    top = arr.max()
+    if np.any((arr != 0) & (arr != top)):
+        return False
+    return ndimage.label(arr != 0, structure=np.ones((3, 3), dtype=bool))[1] > 1
+
+
+def check_frame(frame, where: str, shape=None, label_binary: bool = False) -> np.ndarray:
     """One frame as a 2-D int64 label array, or :class:`MeasureInputError`.
 
     Parameters
@@ -74,8 +105,12 @@ def check_frame(frame, where: str, shape=None) -> np.ndarray:
         Names the frame in messages (file and index).
     shape : tuple, optional
         The shape of the first frame; a different shape is an error.
+    label_binary : bool
+        Label a binary mask's connected pieces (8-connected) as cells instead of refusing it.
     """
     arr = np.asarray(frame)
+    if arr.dtype.fields is not None or arr.dtype.hasobject:
+        raise MeasureInputError(f"{where}: a structured or object array (dtype {arr.dtype}) is not a label image")
     if arr.ndim != 2:
         raise MeasureInputError(f"{where}: a label frame must be 2-D, got shape {arr.shape}")
     if shape is not None and arr.shape != tuple(shape):
@@ -92,6 +127,16 @@ def check_frame(frame, where: str, shape=None) -> np.ndarray:
         raise MeasureInputError(f"{where}: negative label {int(arr.min())} (0 = background, 1..n = cells)")
     if not arr.any():
         raise MeasureInputError(f"{where}: empty mask, no cell in the frame")
+    if arr.dtype == np.uint64 and arr.max() > np.iinfo(np.int64).max:
+        arr = relabel(arr)[0]
+    if _is_binary(arr):
+        from scipy import ndimage
+
+        if not label_binary:
+            raise MeasureInputError(f"{where}: a binary mask (values 0 and {int(arr.max())}), not a label image: "
+                                    "label its connected cells first (Cellpose, StarDist, scipy.ndimage.label), or "
+                                    "pass label_binary=True to label them here")
+        arr = ndimage.label(arr != 0, structure=np.ones((3, 3), dtype=bool))[0]
     return arr.astype(np.int64, copy=False)
 
 
@@ -131,6 +176,8 @@ def read_seg_npy(path) -> np.ndarray:
                 shape, _, dtype = np.lib.format.read_array_header_2_0(fh)
         except ValueError as exc:
             raise MeasureInputError(f"{path}: not a .npy file ({exc})") from None
+        if dtype.fields is not None or (dtype.hasobject and dtype.kind != "O"):
+            raise MeasureInputError(f"{path}: holds a structured array (dtype {dtype}), not label masks")
         if dtype.kind != "O":  # a plain array: memory-mapped, read frame by frame
             return np.load(path, allow_pickle=False, mmap_mode="r")
         try:
@@ -144,7 +191,19 @@ def read_seg_npy(path) -> np.ndarray:
     return np.asarray(obj["masks"])
 
 
+def _check_stack(shape, where: str, axes: str | None = None) -> None:
+    """Refuse colour and multi-channel layouts: a TIFF axis C or S, or a Y x X x 3 / 4 array."""
+    if axes is not None and ("C" in axes or "S" in axes):
+        kind = "colour (RGB) samples" if "S" in axes else "a channel axis"
+        raise MeasureInputError(f"{where}: the image has {kind} (axes {axes}, shape {tuple(shape)}), not a label "
+                                "image: save the label channel alone (one integer per pixel)")
+    if len(shape) == 3 and shape[-1] in (3, 4) and shape[1] > 4 * shape[-1]:
+        raise MeasureInputError(f"{where}: shape {tuple(shape)} looks like a Y x X x {shape[-1]} colour image, not "
+                                "a T x Y x X label stack: save the label channel alone")
+
+
 def _frames_of_array(arr: np.ndarray, where: str):
+    _check_stack(arr.shape, where)
     if arr.ndim == 2:
         yield where, arr
     elif arr.ndim == 3:
@@ -189,6 +248,7 @@ def _frames_of_tiff(path: Path):
     with tifffile.TiffFile(path) as tif:
         series = tif.series[0]
         shape = tuple(series.shape)
+        _check_stack(shape, str(path), str(series.axes))
         if len(shape) not in (2, 3):
             raise MeasureInputError(f"{path}: expected a 2-D frame or a T x Y x X stack, got shape {shape}")
         _check_size(shape[-2:], str(path))
@@ -233,7 +293,27 @@ def _frames_of_png(path: Path):
     yield str(path), arr
 
 
+_KIND = {".tif": "TIFF", ".tiff": "TIFF", ".png": "PNG", ".npy": ".npy"}
+
+
 def _frames_of_file(path: Path):
+    """The frames of one file; whatever its reader raises becomes one line naming the file."""
+    kind = _KIND.get(path.suffix.lower(), "label image")
+    try:
+        if path.stat().st_size == 0:
+            raise MeasureInputError(f"{path}: empty file")
+        yield from _read_file(path)
+    except (MeasureInputError, ImportError):
+        raise
+    except MemoryError:
+        raise MeasureInputError(f"{path}: out of memory while reading it") from None
+    except Exception as exc:  # noqa: BLE001 - every reader's own error becomes one line
+        text = str(exc).strip().splitlines()
+        raise MeasureInputError(f"{path}: not a readable {kind} file ({type(exc).__name__}"
+                                f"{': ' + text[0] if text else ''})") from None
+
+
+def _read_file(path: Path):
     name = path.name.lower()
     if name.endswith((".tif", ".tiff")):
         yield from _frames_of_tiff(path)
@@ -242,6 +322,7 @@ def _frames_of_file(path: Path):
     elif name.endswith(".npy"):
         raw = _npy_stack(path)
         if raw is not None:
+            _check_stack(raw[2], str(path))
             _check_size(raw[2][-2:], str(path))
             yield from _frames_of_raw(path, *raw)
             return
@@ -269,7 +350,7 @@ def _expand(paths) -> list[Path]:
     return out
 
 
-def iter_frames(labels):
+def iter_frames(labels, label_binary: bool = False):
     """Yield the checked label frames of ``labels`` one at a time.
 
     Parameters
@@ -297,7 +378,7 @@ def iter_frames(labels):
     shape = None
     count = 0
     for where, frame in source:
-        frame = check_frame(frame, where, shape)
+        frame = check_frame(frame, where, shape, label_binary)
         shape = frame.shape
         count += 1
         yield where, frame
