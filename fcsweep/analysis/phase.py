@@ -45,10 +45,12 @@ from scipy.special import ndtr
 from fcsweep.analysis.cage import broken_probability
 from fcsweep.analysis.diffusion import D_EFF_SOLID
 from fcsweep.analysis.reasons import REASON_BY_NAME
+from fcsweep.model.settings import LABEL_CONFIDENCE, PERCOLATION_THRESHOLD
 from fcsweep.model.shape import Q_STAR
 
-#: Percolation threshold of the defect fraction (site percolation on a triangular lattice).
-RHO_D_PERCOLATION = 0.5
+#: Percolation threshold of the defect fraction (site percolation on a triangular lattice):
+#: the default of the analysis setting ``percolation_threshold``.
+RHO_D_PERCOLATION = PERCOLATION_THRESHOLD
 
 PHASE_UNKNOWN, PHASE_SOLID, PHASE_FLUID, PHASE_SOFT_FLUID, PHASE_UNDETERMINED = -1, 0, 1, 2, 3
 #: Codes and CF ``flag_meanings`` (blank-separated words) of the phase label.
@@ -58,8 +60,8 @@ PERCOLATION_UNDETERMINED = 2
 #: Codes of the percolation label.
 PERCOLATION_FLAGS = {-1: "unknown", 0: "not_percolated", 1: "percolated",
                      PERCOLATION_UNDETERMINED: "undetermined"}
-#: Default probability a label needs (the ``analysis.label_confidence`` default).
-MIN_CONFIDENCE = 0.95
+#: Default probability a label needs (the analysis setting ``label_confidence``).
+MIN_CONFIDENCE = LABEL_CONFIDENCE
 
 
 def phase_code(D_eff, q_mean, *, d_solid: float = D_EFF_SOLID, q_star: float = Q_STAR):

@@ -4,14 +4,16 @@ from __future__ import annotations
 
 import numpy as np
 
+from fcsweep.model.settings import Q_BINS, Q_RANGE, SETTINGS
 from fcsweep.model.shape import Q_CIRCLE, Q_STAR, amplitude_sum, shape_index
 
-#: Default histogram edges of q: width 0.01 from 3.54 (just below 2 sqrt(pi)) to 5.04.
-Q_EDGES = np.round(np.linspace(3.54, 5.04, 151), 10)
+#: Default histogram edges of q: width 0.01 from 3.54 (just below 2 sqrt(pi)) to 5.04 (the
+#: analysis setting ``q_edges``).
+Q_EDGES = np.round(np.linspace(*Q_RANGE, Q_BINS + 1), 10)
 #: Quadrature points for the perimeter; spectral convergence makes 1024 exact to
 #: ~1e-9 for admissible shapes up to M = 6 even at 98% of the admissibility
 #: bound (256 points: 1e-5 there; checked in tests against scipy.integrate.quad).
-Q_POINTS = 1024
+Q_POINTS = SETTINGS["q_points"].default
 
 
 #: Fewer quadrature points suffice for smaller shapes: (largest amplitude sum s, points),

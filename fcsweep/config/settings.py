@@ -16,6 +16,8 @@ import numpy as np
 from fcsweep.config.errors import ConfigError
 from fcsweep.config.params import canon_value, check_param
 from fcsweep.model.parameters import DEFAULTS, ID_OMITS_DEFAULT
+from fcsweep.model.settings import (CONFIG_KEYS, CORRELATIONS, DEFAULT_CORRELATIONS, DEFAULT_TRANSIENT,  # noqa: F401
+                                    LABEL_CONFIDENCE, PERCOLATION_THRESHOLD, AnalysisSettings)
 
 #: Model parameters and their defaults (:data:`fcsweep.model.parameters.PARAMETERS`); ``None`` means "must be given".
 MODEL_DEFAULTS: dict[str, Any] = DEFAULTS
@@ -30,17 +32,9 @@ RUN_KEYS = ("steps", "sample_every", "checkpoint_every", "transient", "until")
 UNTIL_KEYS = ("check_every", "min_steps", "confidence", "rel_error")
 #: Default ``run.until.confidence``: both labels at 95 % probability.
 UNTIL_CONFIDENCE = 0.95
-ANALYSIS_KEYS = ("label_confidence", "percolation_threshold", "correlations")
-#: Default ``analysis.label_confidence``: the probability a phase, percolation or KTHNY label needs.
-LABEL_CONFIDENCE = 0.95
-#: Default ``analysis.percolation_threshold``: rho_d above it is percolated (the paper's 1/2).
-PERCOLATION_THRESHOLD = 0.5
-#: Allowed ``analysis.correlations``: how G6, C_G1 and G_r are computed, ``pairs`` (the pair
-#: counts, O(N^2) per frame; the reference), ``fft`` (on a grid by FFT, O(N log N)) or
-#: ``auto`` (``pairs`` up to :data:`PAIRS_MAX_N` cells, ``fft`` above: :func:`correlation_method`).
-CORRELATIONS = ("auto", "pairs", "fft")
-#: Default ``analysis.correlations``; at it the key is left out of the config's settings.
-DEFAULT_CORRELATIONS = "auto"
+#: The keys of the ``analysis`` section: settings of the one table of analysis settings
+#: (:class:`fcsweep.model.settings.AnalysisSettings`, whose defaults these are).
+ANALYSIS_KEYS = CONFIG_KEYS
 #: Largest N that ``auto`` gives the pair counts: the paper's largest N, so that the analyses of
 #: the paper's sizes stay those of the reference.  Above it the pair query out to half the box
 #: holds ~0.4 N^2 pairs (15 GB of peak memory at N = 16384), the FFT grid O(N).
@@ -99,38 +93,6 @@ class UntilSettings:
     def is_check_step(self, step: int, cap: int) -> bool:
         """Whether a run checks itself at ``step`` (a check step or the cap, past ``min_steps``)."""
         return step > 0 and step >= self.min_steps and (step % self.check_every == 0 or step == cap)
-
-
-@dataclass(frozen=True)
-class AnalysisSettings:
-    """How ``fcsweep analyze`` and ``aggregate`` label runs and grid points.
-
-    ``label_confidence`` (0.5 < x < 1) is the probability a label needs, else it is
-    undetermined; ``percolation_threshold`` (0 < x < 1) the rho_d above which a run or
-    point is percolated; ``correlations`` (one of :data:`CORRELATIONS`) how G6, C_G1 and
-    G_r are computed.
-    """
-
-    label_confidence: float = LABEL_CONFIDENCE
-    percolation_threshold: float = PERCOLATION_THRESHOLD
-    correlations: str = DEFAULT_CORRELATIONS
-
-    def as_dict(self) -> dict[str, Any]:
-        """The analysis settings these keys set (names of the pipeline's settings).
-
-        ``correlations`` is left out at its default, so that the settings stored in
-        analysis.h5 and trajectory files before the key existed stay equal to these.
-        """
-        out: dict[str, Any] = {"label_confidence": self.label_confidence,
-                               "percolation_threshold": self.percolation_threshold}
-        if self.correlations != DEFAULT_CORRELATIONS:
-            out["correlations"] = self.correlations
-        return out
-
-
-#: Default fraction of recorded frames discarded at the start of every analysis
-#: (``run.transient``; :class:`RunSettings`' default, which validation reads too).
-DEFAULT_TRANSIENT = 0.2
 
 
 @dataclass(frozen=True)
@@ -221,7 +183,8 @@ class SweepConfig:
     run : RunSettings
     store : StoreSettings
     analysis : AnalysisSettings
-        The ``analysis`` section (label confidence, percolation threshold).
+        The ``analysis`` section (label confidence, percolation threshold, correlations; the
+        other analysis settings at their defaults).
     source : str
         Path of the YAML file, or ``"<string>"``.
     refined : tuple of dict
@@ -300,7 +263,7 @@ class SweepConfig:
             "run": {**dataclasses.asdict(self.run),
                     "until": self.run.until.as_dict() if self.run.until else None},
             "store": {**dataclasses.asdict(self.store), "fields": list(self.store.fields)},
-            "analysis": self.analysis.as_dict(),
+            "analysis": self.analysis.config_dict(),
             "description": self.description,
         }
 

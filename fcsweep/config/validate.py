@@ -16,14 +16,15 @@ from fcsweep.config.errors import (FAILED, UNCHECKED, ConfigError, ConfigProblem
 from fcsweep.config.limits import (MAX_RUNS, MAX_STEPS, check_output_path, check_run_count,
                                    check_run_length)
 from fcsweep.config.params import PARAM_RANGES, allowed_values, canon_value, check_param
-from fcsweep.config.settings import (ANALYSIS_KEYS, COMPRESSIONS, CORRELATIONS, DEFAULT_CORRELATIONS, DEFAULT_FIELDS,
-                                     DEFAULT_TRANSIENT, FIELDS, LABEL_CONFIDENCE, MODEL_DEFAULTS, OUTPUT_KEYS,
-                                     PERCOLATION_THRESHOLD, RANGE_KEYS, RUN_KEYS, TOP_KEYS, UNTIL_CONFIDENCE,
+from fcsweep.config.settings import (ANALYSIS_KEYS, COMPRESSIONS, DEFAULT_FIELDS,
+                                     DEFAULT_TRANSIENT, FIELDS, MODEL_DEFAULTS, OUTPUT_KEYS,
+                                     RANGE_KEYS, RUN_KEYS, TOP_KEYS, UNTIL_CONFIDENCE,
                                      UNTIL_KEYS, AnalysisSettings, RunSettings, StoreSettings, SweepConfig,
                                      UntilSettings)
 from fcsweep.model.observables import UNTIL_OBSERVABLES
 from fcsweep.config.yaml12 import MAX_CONFIG_BYTES, MAX_NESTING, check_structure, read_text, UniqueKeyLoader
 from fcsweep.model.parameters import INT_PARAMS, STR_PARAMS
+from fcsweep.model.settings import SETTINGS, setting_problem
 
 
 def builtin_demo_path() -> Path:
@@ -307,24 +308,23 @@ def _analysis_section(analysis_in, problems: ConfigProblems):
         return FAILED
     first = problems.count
     problems.keys(analysis_in, ANALYSIS_KEYS, "in analysis: ")
-    conf = problems.attempt(as_real, analysis_in.get("label_confidence", LABEL_CONFIDENCE),
-                            "analysis.label_confidence", "allowed 0.5 < label_confidence < 1")
-    if conf is not FAILED and not 0.5 < conf < 1.0:
-        problems.add(ConfigError(f"analysis.label_confidence = {conf!r} is out of range; allowed "
-                                 "0.5 < label_confidence < 1 (the probability a label needs)"))
-    thr = problems.attempt(as_real, analysis_in.get("percolation_threshold", PERCOLATION_THRESHOLD),
-                           "analysis.percolation_threshold", "allowed 0 < percolation_threshold < 1")
-    if thr is not FAILED and not 0.0 < thr < 1.0:
-        problems.add(ConfigError(f"analysis.percolation_threshold = {thr!r} is out of range; allowed "
-                                 "0 < percolation_threshold < 1 (defect fraction rho_d)"))
-    corr = analysis_in.get("correlations", DEFAULT_CORRELATIONS)
-    if corr not in CORRELATIONS:
-        problems.add(ConfigError(f"analysis.correlations = {show_value(corr)} is not allowed; allowed: "
-                                 f"{', '.join(CORRELATIONS)} (auto: pair counts up to 10^4 cells, FFT above; "
-                                 "pairs: pair counts, O(N^2); fft: by FFT on a grid)"))
+    values = {}
+    for name in ANALYSIS_KEYS:
+        if name not in analysis_in:
+            continue
+        key, value = f"analysis.{name}", analysis_in[name]
+        if SETTINGS[name].type in (float, "float"):
+            value = problems.attempt(as_real, value, key, f"allowed {SETTINGS[name].allowed}")
+        if value is FAILED:
+            continue
+        problem = setting_problem(name, value, key)
+        if problem:
+            problems.add(ConfigError(problem))
+        else:
+            values[name] = value
     if problems.count > first:
         return FAILED
-    return AnalysisSettings(float(conf), float(thr), str(corr))
+    return AnalysisSettings(**values)
 
 
 def _run_section(run_in, problems: ConfigProblems):
@@ -355,9 +355,10 @@ def _run_section(run_in, problems: ConfigProblems):
             f"run.checkpoint_every = {checkpoint_every} is not a multiple of run.sample_every = "
             f"{sample_every}; checkpoints are taken on frame boundaries"))
     transient = problems.attempt(as_real, run_in.get("transient", DEFAULT_TRANSIENT), "run.transient",
-                                 "allowed 0 <= transient < 1")
-    if transient is not FAILED and not 0.0 <= transient < 1.0:
-        problems.add(ConfigError(f"run.transient = {transient!r} is out of range; allowed 0 <= transient < 1"))
+                                 f"allowed {SETTINGS['transient'].allowed}")
+    if transient is not FAILED and setting_problem("transient", transient):
+        problems.add(ConfigError(setting_problem("transient", transient, "run.transient")))
+        transient = FAILED
     until = None
     if run_in.get("until") is not None:
         if problems.count > first:  # until's bounds refer to steps and checkpoint_every

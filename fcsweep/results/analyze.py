@@ -56,19 +56,19 @@ import h5py
 import numpy as np
 
 from fcsweep import __version__
-from fcsweep.analysis.phase import MIN_CONFIDENCE, RHO_D_PERCOLATION, phase_name
+from fcsweep.analysis.phase import phase_name
 from fcsweep.analysis.reasons import reason_flags
 from fcsweep.analysis import run_observables
 from fcsweep.analysis.frames import FrameSource
 from fcsweep.analysis.run_observables import AnalysisError, RunFrames, frame_plan
-from fcsweep.analysis.shapes import Q_EDGES, Q_POINTS
-from fcsweep.config.settings import CORRELATIONS, DEFAULT_CORRELATIONS, RunSettings, settings_for_run
+from fcsweep.config.settings import DEFAULT_CORRELATIONS, RunSettings, settings_for_run
 from fcsweep.io import schema
 from fcsweep.io.failures import Terminated, WriteFailure, advice, remove_stale
 from fcsweep.io.machine import worker_layout
 from fcsweep.io.rundir import analysis_is_current
 from fcsweep.io.sweepdir import atomic_write, run_path, run_state
 from fcsweep.io.trajectory import TrajectoryError, open_trajectory
+from fcsweep.model.settings import AnalysisSettings
 from fcsweep.model.observables import CURVES, LABELS, REASON_CODES, REASONS, RUN_SCALARS
 
 __all__ = ["ANALYSIS_FILE", "ANALYSIS_ERROR_FILE", "DATASET_FILE", "DEFAULT_SETTINGS", "DEFAULT_TRANSIENT",
@@ -91,23 +91,9 @@ UNWRITTEN = "not written"
 #: The transient of a run without ``run.transient``: the config's own default.
 DEFAULT_TRANSIENT = {f.name: f.default for f in dataclasses.fields(RunSettings)}["transient"]
 
-DEFAULT_SETTINGS = {
-    "transient": DEFAULT_TRANSIENT,
-    "fit_start": 0.2,
-    "max_time_blocks": 8,
-    "min_block_persistence": 8.0,
-    "label_confidence": MIN_CONFIDENCE,
-    "percolation_threshold": RHO_D_PERCOLATION,
-    "subtract_drift": True,
-    "msd_lags": 120,
-    "shape_frames": 200,
-    "structure_frames": 100,
-    "correlation_frames": 10,
-    "q_edges": [float(Q_EDGES[0]), float(Q_EDGES[-1]), len(Q_EDGES) - 1],
-    "q_points": Q_POINTS,
-    "g6_dr": 0.1,
-    "gr_dx": 0.2,
-}
+#: The analysis settings at their defaults, as the analysis reads and stores them
+#: (:class:`fcsweep.model.settings.AnalysisSettings`, the one table of them).
+DEFAULT_SETTINGS = AnalysisSettings().as_dict()
 
 #: Settings that may be absent, with the meaning of their absence: ``correlations`` is
 #: ``auto`` until :func:`fcsweep.config.settings.settings_for_run` resolves it for a run
@@ -121,30 +107,18 @@ SCALARS = RUN_SCALARS + LABELS
 
 
 def settings_with(overrides=None, *, transient=None) -> dict:
-    """Analysis settings: the defaults updated by ``overrides`` (unknown keys rejected).
+    """Analysis settings: the defaults updated by ``overrides`` and ``transient``, each value
+    checked against the table (:class:`fcsweep.model.settings.AnalysisSettings`; unknown
+    keys and values out of range raise ``ValueError``).
 
     A key of :data:`OPTIONAL_SETTINGS` is present only where it differs from its default
     (``correlations``: ``pairs`` or ``fft`` where asked for, absent for ``auto``); a run's
     analysis resolves it with :func:`fcsweep.config.settings.settings_for_run`.
     """
-    s = json.loads(json.dumps(DEFAULT_SETTINGS))
-    for k, v in dict(overrides or {}).items():
-        if k in OPTIONAL_SETTINGS:
-            if v == OPTIONAL_SETTINGS[k]:
-                s.pop(k, None)
-            else:
-                s[k] = v
-            continue
-        if k not in s:
-            raise ValueError(f"unknown analysis setting {k!r}; allowed: {sorted([*s, *OPTIONAL_SETTINGS])}")
-        s[k] = v
-    if s.get("correlations", DEFAULT_CORRELATIONS) not in CORRELATIONS:
-        raise ValueError(f"correlations = {s['correlations']!r}; allowed: {', '.join(CORRELATIONS)}")
+    values = dict(overrides or {})
     if transient is not None:
-        s["transient"] = float(transient)
-    if not 0.0 <= float(s["transient"]) < 1.0:
-        raise ValueError(f"transient = {s['transient']} must lie in [0, 1)")
-    return s
+        values["transient"] = float(transient)
+    return AnalysisSettings.from_dict(values).as_dict()
 
 
 def config_settings(config) -> dict:
@@ -152,7 +126,7 @@ def config_settings(config) -> dict:
     (``label_confidence``, ``percolation_threshold``, ``correlations`` where not the
     default); {} for a config without one."""
     analysis = getattr(config, "analysis", None)
-    return dict(analysis.as_dict()) if analysis is not None else {}
+    return dict(analysis.config_dict()) if analysis is not None else {}
 
 
 # ------------------------------------------------------------------ one run: read (the computation is

@@ -155,7 +155,7 @@ def _assess(partial: Path, cfg: SweepConfig):
 
     until = cfg.run.until
     return assess_trajectory(partial, transient=cfg.run.transient, confidence=until.confidence,
-                             rel_error=dict(until.rel_error), threads=1, settings=cfg.analysis.as_dict())
+                             rel_error=dict(until.rel_error), threads=1, settings=cfg.analysis.config_dict())
 
 
 # --------------------------------------------------------------------------- RunWriter
