@@ -21,6 +21,7 @@ import numba
 import numpy as np
 
 from . import __version__
+from .frames import Frames
 from .io.atomic import atomic_write
 from .kernels.records import P_DMAX
 from .kernels.step import LIST_FULL, NONFINITE, OK, run_chunk
@@ -411,6 +412,48 @@ class Simulation:
                         f"is too large: try dt={self.params.dt / 4:g}", RuntimeWarning, stacklevel=2)
         finally:
             numba.set_num_threads(threads)
+
+    def run(self, time: float, every: float) -> Frames:
+        """Integrate ``time`` time units and record the state now and every ``every`` time
+        units after, in memory.
+
+        The frames are those a sweep run samples every ``every / dt`` steps (the first at
+        the present step): the same values its ``trajectory.h5`` stores, so that
+        :func:`fcsweep.observables` of them equals what ``fcsweep analyze`` stores.  Called
+        again, it continues the run (its first frame repeats the last one of before).
+
+        Parameters
+        ----------
+        time : float
+            Time units to integrate: a whole number of steps ``dt``.
+        every : float
+            Time units between frames: a whole number of steps that divides ``time``.
+
+        Returns
+        -------
+        fcsweep.frames.Frames
+            ``time / every + 1`` frames.
+        """
+        n, k = self._whole_steps(time, "time"), self._whole_steps(every, "every")
+        if k == 0 or n % k:
+            raise ValueError(f"every = {every!r} must be a whole number of steps (dt = {self.params.dt:g}) that "
+                             f"divides time = {time!r}")
+        snapshots = [self._snapshot()]
+        for _ in range(n // k):
+            self.advance(k)
+            snapshots.append(self._snapshot())
+        return Frames.from_snapshots(snapshots, self.params.to_dict(), self.state.box, self.radii)
+
+    def _whole_steps(self, duration: float, name: str) -> int:
+        steps = float(duration) / self.params.dt
+        if not math.isfinite(steps) or steps < 0 or abs(steps - round(steps)) > 1e-9 * max(1.0, steps):
+            raise ValueError(f"{name} = {duration!r} must be >= 0 and a whole number of steps dt = {self.params.dt:g}")
+        return int(round(steps))
+
+    def _snapshot(self) -> dict:
+        s = self.state
+        return {"step": int(s.step), "time": float(s.step) * float(self.params.dt), "position": s.pos.copy(),
+                "image": s.image.copy(), "theta": s.theta.copy(), "shape_a": s.a.copy(), "shape_b": s.b.copy()}
 
     def _check_state(self) -> None:
         """Refuse to step a state with non-finite values (set from outside: the kernels
