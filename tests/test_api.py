@@ -92,7 +92,12 @@ def test_an_undetermined_label_has_no_confidence():
     ds = fcsweep.observables(sim.run(5.0, every=0.5))
     assert ds["phase"].item() == "undetermined", ds["phase_reason"].item()
     assert np.isnan(float(ds["phase_confidence"]))
-    assert "phase_reason" in ds and ds["phase_reason"].item()
+    reason = ds["phase_reason"].item()
+    assert reason.startswith("run too short for D_eff"), reason
+    # the window is what is left after the transient and the equilibration cut: the reason says which
+    cut = float(ds["t_equilibrated"]) - float(ds["t_start"])
+    assert (f"equilibration cut at t = {float(ds['t_equilibrated']):.4g}" in reason) == (cut > 0), reason
+    assert ("after the transient" in reason) == (cut == 0), reason
 
 
 def test_bad_arguments_are_refused_before_anything_runs():

@@ -301,3 +301,17 @@ def test_the_figure_words_over_starts_and_replicates():
     ds["phase_reason_code"] = (dims, code)
     words = _point_reasons(ds, ("v0", "eta"), None)[:, 0].tolist()
     assert words == ["starts disagree", "replicates disagree", "too short"]
+
+
+def test_the_reason_names_the_estimate_the_solid_test_read():
+    """Near the threshold the reason quotes D_eff_cr when the cage-relative estimate decided,
+    not the plain D_eff beside it (0.0102 there: a reader would see no conflict with 1e-3)."""
+    from fcsweep.analysis.phase import phase_evidence, phase_label
+
+    sc = {"D_eff": 0.0102, "D_eff_err": 0.0039, "D_eff_cr": 0.000538, "D_eff_cr_err": 0.00043,
+          "msd_long_enough": 1.0, "msd_diffusive": 1.0, "q_mean": 3.7, "q_mean_err": 0.001}
+    lab = phase_label(phase_evidence(sc))
+    assert lab.reason_code == "near_d_threshold"
+    assert "D_eff_cr = 0.000538" in lab.reason and "D_eff = " not in lab.reason.replace("D_eff_cr = ", "")
+    plain = phase_label(phase_evidence({**sc, "D_eff_cr": float("nan"), "D_eff": 0.0011, "D_eff_err": 0.0004}))
+    assert plain.reason.startswith("D_eff = 0.0011")

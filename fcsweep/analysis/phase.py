@@ -217,6 +217,9 @@ class PhaseEvidence:
         ``<q>`` and its error.
     trust_code : str
         Reason code of ``trust_note`` (``too_short`` or ``not_diffusive``).
+    D_solid_name : str
+        Which estimate ``D_solid`` is (``D_eff_cr``, ``D_eff_long`` or ``D_eff``): the
+        reasons name it.
     """
 
     D_solid: float
@@ -230,6 +233,17 @@ class PhaseEvidence:
     q: float
     q_err: float
     trust_code: str = "not_diffusive"
+    D_solid_name: str = "D_eff"
+
+
+def solid_test_name(sc: dict) -> str:
+    """The name of the estimate :func:`solid_test_estimate` takes from ``sc``."""
+    if np.isfinite(sc.get("D_eff_cr", np.nan)) and np.isfinite(sc.get("D_eff_cr_err", np.nan)):
+        return "D_eff_cr"
+    if sc.get("n_time_blocks", 1) >= 2 and np.isfinite(sc.get("D_eff_long", np.nan)) \
+            and np.isfinite(sc.get("D_eff_long_err", np.nan)):
+        return "D_eff_long"
+    return "D_eff"
 
 
 def solid_test_estimate(sc: dict) -> tuple[float, float]:
@@ -245,12 +259,8 @@ def solid_test_estimate(sc: dict) -> tuple[float, float]:
     window as one block (``D_eff_long`` when there are several blocks) sees a slow cage
     plateau that short blocks miss; else ``D_eff``.
     """
-    if np.isfinite(sc.get("D_eff_cr", np.nan)) and np.isfinite(sc.get("D_eff_cr_err", np.nan)):
-        return float(sc["D_eff_cr"]), float(sc["D_eff_cr_err"])
-    if sc.get("n_time_blocks", 1) >= 2 and np.isfinite(sc.get("D_eff_long", np.nan)) \
-            and np.isfinite(sc.get("D_eff_long_err", np.nan)):
-        return float(sc["D_eff_long"]), float(sc["D_eff_long_err"])
-    return float(sc.get("D_eff", np.nan)), float(sc.get("D_eff_err", np.nan))
+    name = solid_test_name(sc)
+    return float(sc.get(name, np.nan)), float(sc.get(f"{name}_err", np.nan))
 
 
 def cage_evidence(sc: dict) -> tuple[float, str]:
@@ -303,7 +313,7 @@ def phase_evidence(sc: dict, note: str | None = None) -> PhaseEvidence:
     p, cage_note = cage_evidence(sc)
     return PhaseEvidence(D, De, trusted, why, p, cage_note, float(sc.get("D_eff_cr_late", np.nan)),
                          float(sc.get("D_eff_cr_late_err", np.nan)), float(sc.get("q_mean", np.nan)),
-                         float(sc.get("q_mean_err", np.nan)), code)
+                         float(sc.get("q_mean_err", np.nan)), code, solid_test_name(sc))
 
 
 def phase_label(ev: PhaseEvidence, *, min_confidence: float = MIN_CONFIDENCE, d_solid: float = D_EFF_SOLID,
@@ -324,13 +334,13 @@ def phase_label(ev: PhaseEvidence, *, min_confidence: float = MIN_CONFIDENCE, d_
     p_b = ev.p_broken
     if np.isfinite(p_b) and p_b >= min_confidence:
         return _broken_label(ev, min_confidence, d_solid, q_star)
-    D, De = ev.D_solid, ev.D_solid_err
+    D, De, name = ev.D_solid, ev.D_solid_err, ev.D_solid_name
     d_known = ev.solid_trusted and np.isfinite(D) and np.isfinite(De)
     p_solid_d = 1.0 - p_above(D, De, d_solid) if d_known else float("nan")
     if d_known and p_solid_d >= min_confidence:
         conf = float(p_solid_d * (1.0 - p_b if np.isfinite(p_b) else 1.0))
         if conf < min_confidence:
-            return Label(PHASE_UNDETERMINED, conf, f"D_eff = {_fmt(D, De)} reads solid but the cages may be "
+            return Label(PHASE_UNDETERMINED, conf, f"{name} = {_fmt(D, De)} reads solid but the cages may be "
                                                    f"broken (P = {p_b:.2f}); a longer run decides",
                          "cages_may_be_broken")
         why = f"P(solid) = {conf:.3f}"
@@ -339,13 +349,13 @@ def phase_label(ev: PhaseEvidence, *, min_confidence: float = MIN_CONFIDENCE, d_
     if not ev.solid_trusted:
         why, rc = ev.trust_note or "D_eff estimate not trustworthy", ev.trust_code
     elif not np.isfinite(D):
-        return Label(PHASE_UNKNOWN, float("nan"), "D_eff not available", "not_available")
+        return Label(PHASE_UNKNOWN, float("nan"), f"{name} not available", "not_available")
     elif not np.isfinite(De):
-        why, rc = "D_eff has no error estimate", "no_error"
+        why, rc = f"{name} has no error estimate", "no_error"
     elif p_solid_d <= 1.0 - min_confidence:
-        why, rc = f"D_eff = {_fmt(D, De)} reads fluid", "fluid_cages_intact"
+        why, rc = f"{name} = {_fmt(D, De)} reads fluid", "fluid_cages_intact"
     else:
-        why = f"D_eff = {_fmt(D, De)} too close to the solid threshold {d_solid:g} (P = {conf:.2f})"
+        why = f"{name} = {_fmt(D, De)} too close to the solid threshold {d_solid:g} (P = {conf:.2f})"
         rc = "near_d_threshold"
     cage = ev.cage_note or "no evidence that the cells left their cages"
     return Label(PHASE_UNDETERMINED, conf, f"{why}; {cage}; a longer run decides", rc)

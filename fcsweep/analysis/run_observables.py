@@ -403,7 +403,11 @@ def label_observables(sc: Mapping, est, settings: Mapping, Dr: float) -> dict:
     ``sc`` and the diffusion estimate ``est`` (a run too short or not diffusive says so)."""
     note = ""
     if not est.long_enough:
-        note = (f"run too short for D_eff: {est.block_span:.4g} time units analysed, "
+        cut = sc["t_equilibrated"] - sc["t_start"]
+        after = (f"after the equilibration cut at t = {sc['t_equilibrated']:.4g} ({cut:.4g} time units past the "
+                 f"transient, where the shape and defect series became stationary)" if cut > 0 else
+                 "after the transient")
+        note = (f"run too short for D_eff: {est.block_span:.4g} time units analysed {after}, "
                 f"need {float(settings['min_block_persistence']):g}/Dr = "
                 f"{float(settings['min_block_persistence']) / Dr:.4g}")
     elif not est.diffusive and not np.isfinite(sc["D_eff_cr"]):
