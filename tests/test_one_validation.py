@@ -57,3 +57,26 @@ def test_a_valid_point_passes_both():
     text = ("output: out\nseed: 1\ngrid: {N: [64]}\nmodel: {eta: 0.03, v0: 0.06}\n"
             "run: {steps: 100, sample_every: 10}\n")
     check_runnable(parse_config(text))
+
+
+def test_the_core_exponent_rule_is_stated_once():
+    """SimParams, the numpy rates and the kernels' rates refuse p != 1 with the point rules with
+    the one rule's message (fcsweep.model.integrators.core_exponent_problem)."""
+    import numpy as np
+
+    from fcsweep.kernels.api import kernel_rates
+    from fcsweep.model.integrators import core_exponent_problem
+    from fcsweep.model.lattice import hexagonal_lattice
+    from fcsweep.model.rates import rates
+
+    expected = core_exponent_problem(2.0, "binary", 6, "euler")
+    assert expected.startswith("core_exponent = 2 needs quadrature 'arc'")
+    with pytest.raises(ValueError) as info:
+        SimParams(seed=1, **BASE, core_exponent=2.0, quadrature="binary")
+    assert str(info.value) == expected
+    pos, box = hexagonal_lattice(16)
+    a = b = np.zeros((16, 5))
+    for f in (rates, kernel_rates):
+        with pytest.raises(ValueError) as info:
+            f(pos, np.zeros(16), a, b, eta=0.1, v0=0.01, box=box, quadrature="binary", core_exponent=2.0)
+        assert str(info.value) == expected, f.__module__

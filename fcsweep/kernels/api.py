@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..model.integrators import JACOBI_MAX_FACTOR, KAPPA_FLOOR
+from ..model.integrators import JACOBI_MAX_FACTOR, KAPPA_FLOOR, core_exponent_problem
 from .records import (N_PARAMS, P_ADH, P_ADHR, P_CONTACT, P_CORE, P_DMAX, P_DT, P_ETA, P_KFLOOR, P_LAMMAX, P_LX,
                       P_LY, P_MUS, P_MUT, P_NOISE, P_R0, P_SKIN, P_SMAX, P_SWEEPS, P_V0, P_WALL, P_WALLA)
 from .step import compute_rates
@@ -75,14 +75,15 @@ def kernel_rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, contour_points=
         box = wall.host
     if radii is not None and (contact > 0.0 or sweeps > 0):
         raise ValueError("per-cell radii need the euler integrator (contact = sweeps = 0)")
-    if core_exponent != 1.0 and (quadrature != "arc" or contact > 0.0 or sweeps > 0):
-        if np.asarray(a).size > 0 or contact > 0.0 or sweeps > 0:
-            raise ValueError("core_exponent != 1 needs quadrature 'arc' (or modes 0) and the euler integrator")
     pos = np.ascontiguousarray(pos, dtype=float).reshape(-1, 2)
     N = len(pos)
     theta = np.ascontiguousarray(theta, dtype=float).reshape(N)
     a = np.ascontiguousarray(a, dtype=float).reshape(N, -1)
     b = np.ascontiguousarray(b, dtype=float).reshape(N, -1)
+    integrator = "contact-jacobi" if sweeps > 0 else "contact-implicit" if contact > 0.0 else "euler"
+    problem = core_exponent_problem(core_exponent, quadrature, a.shape[1] + 1 if a.shape[1] else 0, integrator)
+    if problem:
+        raise ValueError(problem)
     ws = workspace or workspace_for(N, contour_points, a.shape[1], box, R0, quadrature,
                                     "contact-jacobi" if sweeps > 0 else "euler", radii=radii)
     if quadrature == "arc" and a.shape[1] > 0 and not ws.pair_buffer:

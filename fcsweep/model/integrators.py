@@ -230,3 +230,22 @@ def contact_persistence(sets):
         kept += len(now & nxt)
         total += len(now)
     return kept / total if total else float("nan")
+
+
+def core_exponent_problem(core_exponent, quadrature, modes, integrator) -> str:
+    """Why ``core_exponent`` cannot run with these settings ("" if it can).
+
+    The energy sum A_ij^p needs each pair's overlap area, which the arc rule computes from
+    its contact arcs (rigid discs: the lens); the point rules have none, and the contact
+    integrators' factors are written for p = 1.  The one statement of the rule: the config,
+    :class:`fcsweep.simulation.SimParams`, :func:`fcsweep.model.rates.rates` and
+    :func:`fcsweep.kernels.api.kernel_rates` call it.
+    """
+    if core_exponent == 1.0:
+        return ""
+    if modes != 0 and quadrature != "arc":
+        return (f"core_exponent = {core_exponent:g} needs quadrature 'arc' (or modes 0): the {quadrature!r} rule "
+                "has no overlap area per pair")
+    if integrator != DEFAULT_INTEGRATOR:
+        return f"core_exponent = {core_exponent:g} needs integrator {DEFAULT_INTEGRATOR!r}; got {integrator!r}"
+    return ""

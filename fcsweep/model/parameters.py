@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from fcsweep.model.confinement import BOUNDARIES
-from fcsweep.model.integrators import DEFAULT_INTEGRATOR, INTEGRATORS
+from fcsweep.model.integrators import DEFAULT_INTEGRATOR, INTEGRATORS, core_exponent_problem  # noqa: F401
 from fcsweep.model.lattice import lattice_side
 from fcsweep.model.rates import QUADRATURES
 from fcsweep.model.sizes import SIZE_DISTRIBUTIONS
@@ -270,23 +270,6 @@ def value_problem(name: str, value, key: str | None = None, shown: str | None = 
     if not p.sign_ok(value):
         return f"{key} = {shown} is out of range; {name} must {SIGNS[p.sign][1]}"
     return "" if p.in_range(value) else f"{key} = {shown} is out of range; {p.range_text()}"
-
-
-def core_exponent_problem(core_exponent, quadrature, modes, integrator) -> str:
-    """Why ``core_exponent`` cannot run with these settings ("" if it can).
-
-    The energy sum A_ij^p needs each pair's overlap area, which the arc rule computes from
-    its contact arcs (rigid discs: the lens); the point rules have none, and the contact
-    integrators' factors are written for p = 1.
-    """
-    if core_exponent == 1.0:
-        return ""
-    if modes != 0 and quadrature != "arc":
-        return (f"core_exponent = {core_exponent:g} needs quadrature 'arc' (or modes 0): the {quadrature!r} rule "
-                "has no overlap area per pair")
-    if integrator != DEFAULT_INTEGRATOR:
-        return f"core_exponent = {core_exponent:g} needs integrator {DEFAULT_INTEGRATOR!r}; got {integrator!r}"
-    return ""
 
 
 def _default_cell(p: Parameter) -> str:

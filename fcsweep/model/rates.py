@@ -24,6 +24,7 @@ import warnings
 import numpy as np
 
 from .discs import per_cell_radii, core_factor, disc_rates
+from .integrators import core_exponent_problem
 from .shape import a0_of, amplitude_sum, mode_numbers, radius
 
 #: Quadrature rules for the overlap weights.
@@ -460,8 +461,9 @@ def rates(pos, theta, a, b, *, eta, v0, box=None, R0=1.0, contour_points=40, qua
         raise ValueError(f"quadrature must be one of {QUADRATURES}; got {quadrature!r}")
     if a.shape[1] == 0:
         return disc_rates(pos, theta, v0=v0, box=box, R0=R0, core_exponent=core_exponent, radii=radii)
-    if core_exponent != 1.0 and quadrature != "arc":
-        raise ValueError(f"core_exponent != 1 needs quadrature 'arc' (or modes 0); got {quadrature!r}")
+    problem = core_exponent_problem(core_exponent, quadrature, a.shape[1] + 1, "euler")
+    if problem:
+        raise ValueError(problem)
     if quadrature == "arc":
         arcs = arc_integrals(pos, theta, a, b, box=box, R0=R0, contour_points=contour_points,
                              core_exponent=core_exponent, radii=radii)
