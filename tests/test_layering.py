@@ -86,3 +86,27 @@ def test_measure_sits_with_analysis(path):
     bad = {m for m in _imports(path) if m.startswith("fcsweep.") and not m.startswith(allowed)}
     assert not bad, f"{path.name} imports {bad}"
 
+
+
+def _module_of(path: Path) -> str:
+    parts = path.relative_to(PKG.parent).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+@pytest.mark.parametrize("path", sorted(PKG.rglob("*.py")), ids=lambda p: str(p.relative_to(PKG)))
+def test_no_private_name_is_imported_from_another_module(path):
+    """A name another module needs is public: nothing imports an ``_underscore`` name (dunder
+    names aside) from another fcsweep module."""
+    here = _module_of(path)
+    package = here if path.name == "__init__.py" else here.rsplit(".", 1)[0]
+    bad = []
+    for node in ast.walk(ast.parse(path.read_text())):
+        if not isinstance(node, ast.ImportFrom):
+            continue
+        base = package.split(".")[: len(package.split(".")) - node.level + 1] if node.level else []
+        source = ".".join([*base, node.module] if node.module else base) if node.level else (node.module or "")
+        if not source.startswith("fcsweep"):
+            continue
+        bad += [f"{a.name} from {source}" for a in node.names
+                if a.name.startswith("_") and not a.name.startswith("__") and source != here]
+    assert not bad, f"{path.relative_to(PKG)} imports private names: {bad}"
