@@ -54,7 +54,7 @@ def disordered_144():
 
 def test_initial_is_a_string_parameter_left_out_of_the_id_at_its_default():
     p = PARAMETERS["initial"]
-    assert p.type is str and p.default == "lattice" and p.choices == ("lattice", "disordered")
+    assert p.type is str and p.default == "lattice" and p.choices == ("lattice", "disordered", "coexistence")
     # (parameters added later, such as adhesion, join the table's omitted-at-default set)
     assert {"integrator": "euler", "initial": "lattice"}.items() <= ID_OMITS_DEFAULT.items()
     base = {"N": 16, "eta": 0.1, "v0": 0.03}
@@ -95,7 +95,7 @@ def test_both_starts_are_a_grid_dimension_with_distinct_ids():
 
 def test_a_wrong_initial_names_the_key_and_the_choices():
     with pytest.raises(ConfigError, match=r"model.initial = 'hex' is not allowed; choose one of "
-                                          r"\['lattice', 'disordered'\]"):
+                                          r"\['lattice', 'disordered', 'coexistence'\]"):
         parse_config(CONFIG.format(extra="  initial: hex"))
     with pytest.raises(ValueError, match="initial must be one of"):
         Simulation.create(16, seed=1, eta=0.1, v0=0.0, initial="hex")

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Mapping
 
 from fcsweep.config.errors import ConfigError, ConfigProblems, is_whole, show_value
+from fcsweep.model.coexistence import coexistence_problem
 from fcsweep.model.confinement import boundary_problem
 from fcsweep.model.integrators import DEFAULT_INTEGRATOR, integrator_problem
 from fcsweep.model.parameters import core_exponent_problem
@@ -54,6 +55,7 @@ def check_runnable(cfg: "SweepConfig") -> None:
       (:func:`fcsweep.model.parameters.core_exponent_problem`);
     - a well or channel starts disordered under Euler and holds its cells
       (:func:`fcsweep.model.confinement.boundary_problem`);
+    - a coexistence start has room for a slab and a band (:func:`fcsweep.model.coexistence.coexistence_problem`);
     - step length and rotational step (:func:`check_step_sizes`);
     - the largest run fits in this machine's memory (:func:`check_memory`).
 
@@ -102,6 +104,11 @@ def check_runnable(cfg: "SweepConfig") -> None:
         if problem:
             problems.add(ConfigError(f"{where('boundary_size' if 'boundary_size' in problem else 'boundary')}: "
                                      f"{problem}"))
+            break
+    for N, initial in _grid_or_model(cfg, ("N", "initial")):
+        problem = coexistence_problem(N, initial)
+        if problem:
+            problems.add(ConfigError(f"{where('N')}: {problem}"))
             break
     if set(grid.get("modes", (model.get("modes"),))) == {0}:
         for name in ("quadrature", "contour_points"):
