@@ -39,11 +39,10 @@ import contourpy
 import numpy as np
 from scipy import ndimage
 
-from fcsweep.measure.perimeter import blurred_line, blurred_perimeter, peak_curvature, polygon_perimeter
+from fcsweep.measure.perimeter import blurred_line, blurred_perimeter, mismatch, polygon_perimeter
 
 __all__ = ["measure_cells", "CELL_FIELDS", "fit_radius", "STAR_TOLERANCE", "FIT_POINTS", "SHAPE_FLAGS",
-           "ESTIMATORS", "MIN_AREA_PX", "MIN_INSCRIBED_RADIUS_PX", "Q_ERR_COEF", "CORNER_CURVATURE",
-           "CORNER_MIN_RADIUS_PX"]
+           "ESTIMATORS", "MIN_AREA_PX", "MIN_INSCRIBED_RADIUS_PX", "Q_ERR_COEF", "PARAMETER_COST", "POLYGON_MIN_RADIUS_PX"]
 
 #: Per-cell outputs of :func:`measure_cells` (besides the mode arrays ``a``, ``b``, ``c_abs``).
 CELL_FIELDS = ("label", "x", "y", "area", "perimeter_contour", "perimeter_fit", "q_fit", "perimeter", "q", "q_err",
@@ -56,13 +55,11 @@ ESTIMATORS = {0: "none", 1: "fit", 2: "polygon", 3: "blurred"}
 MIN_AREA_PX = 20
 #: Cells without an inscribed disc of this radius (pixels, from the distance transform) are slivers.
 MIN_INSCRIBED_RADIUS_PX = 2.5
-#: A cell has corners when the blurred outline's peak curvature (1 / px) reaches this
-#: (:func:`fcsweep.measure.perimeter.peak_curvature`; discs of radius >= 5 px stay below 0.41, regular
-#: hexagons and exact Voronoi cells of >= 20 px across mostly reach 0.44 or more, ellipses of aspect >= 4
-#: peak at their tips).
-CORNER_CURVATURE = 0.44
-#: ... and when its equivalent radius sqrt(A / pi) is at least this many pixels (smaller cells: the fit).
-CORNER_MIN_RADIUS_PX = 8.0
+#: Cells of smaller equivalent radius (pixels) take the fit when they are star-shaped (their polygon
+#: has too few pixels per side to beat it).
+POLYGON_MIN_RADIUS_PX = 8.0
+#: Cost of one parameter of an outline, in mismatched pixels, when the fit and the polygon are compared.
+PARAMETER_COST = 0.5
 #: Per-cell rms relative error of q times the equivalent radius sqrt(A / pi) in pixels, per estimator
 #: (measured on the validation shapes, docs/measure.md): ``q_err = q * Q_ERR_COEF[k] / R_px``.
 Q_ERR_COEF = {1: 0.06, 2: 0.15, 3: 0.10}
@@ -217,16 +214,8 @@ def measure_cells(frame: np.ndarray, pixel_size=(1.0, 1.0), modes: int = 6, slic
         R0 = np.sqrt(out["area"][c] / np.pi)
         out["a"][c] = coef[3::2] / R0
         out["b"][c] = coef[4::2] / R0
-        corners = area_px >= np.pi * CORNER_MIN_RADIUS_PX ** 2 and peak_curvature(blurred) >= CORNER_CURVATURE
-        p_poly = polygon_perimeter(blurred, scale=scale)[0] if (corners or not star) else np.nan
-        if star and np.isfinite(perim) and not corners:
-            est, p = 1, perim
-        elif np.isfinite(p_poly):
-            est, p = 2, p_poly
-        elif star and np.isfinite(perim):
-            est, p = 1, perim
-        else:
-            est, p = 3, blurred_perimeter(blurred, scale=scale)
+        est, p = _choose(mask, blurred, coef, perim, star,
+                         (out["x"][c] / px - sc.start - 0.5, out["y"][c] / py - sr.start - 0.5), scale)
         out["q_estimator"][c] = est
         out["perimeter"][c] = p
         out["q"][c] = p / np.sqrt(out["area"][c])
@@ -234,3 +223,27 @@ def measure_cells(frame: np.ndarray, pixel_size=(1.0, 1.0), modes: int = 6, slic
     out["c_abs"] = np.hypot(out["a"], out["b"])
     return out
 
+
+
+
+
+def _choose(mask, blurred, coef, perim, star, centre, scale):
+    """(estimator code, perimeter): of the fit and the polygon, the outline that reproduces the
+    mask better, counting each pixel centre it puts on the wrong side as 1 and each parameter of
+    the outline as :data:`PARAMETER_COST` (the fit has 2 M + 1, the polygon 2 per vertex); the
+    fit only for star-shaped cells; the blurred outline when neither exists."""
+    p_poly, verts = polygon_perimeter(blurred, mask, scale)
+    fit_ok = star and np.isfinite(perim)
+    padded = np.pad(mask, 1)
+    if fit_ok and len(verts) >= 3 and mask.sum() >= np.pi * POLYGON_MIN_RADIUS_PX ** 2:
+        t = np.linspace(0, 2 * np.pi, 128, endpoint=False)
+        k = np.arange(1, (coef.size - 1) // 2 + 1)
+        R = coef[0] + coef[1::2] @ np.cos(np.outer(k, t)) + coef[2::2] @ np.sin(np.outer(k, t))
+        curve = np.stack([centre[0] + R * np.cos(t) / scale[0], centre[1] + R * np.sin(t) / scale[1]], 1)
+        fit_ok = (mismatch(padded, curve + 1) + PARAMETER_COST * coef.size
+                  <= mismatch(padded, verts + 1) + PARAMETER_COST * 2 * len(verts))
+    if fit_ok:
+        return 1, perim
+    if len(verts) >= 3:
+        return 2, p_poly
+    return 3, blurred_perimeter(blurred, scale=scale)
