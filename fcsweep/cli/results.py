@@ -164,7 +164,8 @@ def plot(config, output, run, frame, outdir, measured):
 @click.option("--out", "out_file", type=click.Path(dir_okay=False), default=None,
               help="Movie file [<run directory>/movie.mp4].")
 def movie(run, config, output, fps, every, dpi, out_file):
-    """MP4 movie of one run: contours coloured by q, defects marked, with a progress bar.
+    """MP4 movie of one run: contours coloured by q, defects marked, with a progress bar
+    (on a terminal; a line per quarter of the frames otherwise).
 
     RUN is a run id or index of the sweep CONFIG (default: the built-in demo), or the
     path of a trajectory.h5.  Needs the `movie` extra: pip install 'fcsweep[movie]'.
@@ -176,7 +177,8 @@ def movie(run, config, output, fps, every, dpi, out_file):
     traj = run_argument(run, config, output)
     try:
         with results_command(say, "--out"):
-            path = movie_run(traj, out_file, fps=fps, every=every, dpi=dpi)
+            path = movie_run(traj, out_file, fps=fps, every=every, dpi=dpi,
+                             progress=True if sys.stderr.isatty() else say)
     except ImportError as exc:
         say(str(exc))
         sys.exit(2)

@@ -15,11 +15,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
 from .fourier import fourier_series
 from .geometry import radius_at
-from .options import NJIT
+from .options import NJIT, njit
 from .records import P_ADH, P_ADHR, P_LX, P_LY, P_MUS, P_MUT, P_R0
 
 

@@ -32,11 +32,10 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
 
 from ..model.rates import DIP_MARGIN, ROOT_STEP
 from .fourier import fourier_series, modes6, multiples6, series6
-from .options import NJIT
+from .options import NJIT, njit
 
 _G = 0.5 / math.sqrt(3.0)  # Gauss-Legendre nodes at 1/2 -+ _G on [0, 1]
 

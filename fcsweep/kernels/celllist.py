@@ -10,9 +10,8 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
 
-from .options import NJIT
+from .options import NJIT, njit
 
 
 @njit(**NJIT)

@@ -7,9 +7,8 @@ loops for M > 6.
 
 from __future__ import annotations
 
-from numba import njit
 
-from .options import NJIT
+from .options import NJIT, njit
 
 
 @njit(inline="always", **NJIT)

@@ -20,10 +20,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
 from .fourier import fourier6, fourier_series, modes6
-from .options import NJIT
+from .options import NJIT, njit
 
 #: Points per vector block of the binary rule (a multiple of the SIMD width).
 LANES = 4

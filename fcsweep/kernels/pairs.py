@@ -10,12 +10,11 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
 
 from .arcs import arc_pair, may_touch
 from .contacts import contact_factor
 from .geometry import LANES, gap_at
-from .options import NJIT
+from .options import NJIT, njit
 from .windows import angular_window, binary_window, window_gaps6, window_gaps_generic
 
 QUAD_BINARY = 0

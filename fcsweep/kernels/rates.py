@@ -13,11 +13,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import get_thread_id, njit, prange
+from numba import get_thread_id, prange
 
 from .contacts import (J_DEPTH, J_DLAM, J_LAM, J_UOWN, J_UX, J_UY, add_scaled_arc_pair, add_share_rates,
                        jacobi_factor, rates_depth_rate, record_arc_pair, scale_point_pair)
-from .options import NJIT
+from .options import NJIT, njit
 from .pairs import QUAD_ARC, pair_arc, pair_arc_call, pair_weights
 from .records import P_CONTACT, P_CORE, P_DT, P_ETA, P_KFLOOR, P_LAMMAX, P_LX, P_LY, P_MUS, P_MUT, P_R0, P_V0
 

@@ -16,12 +16,12 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
 from .adhesion import adhesion_rates
 from .celllist import build_cell_list, grid_shape
 from .geometry import geometry
-from .options import NJIT
+from .options import NJIT, njit
 from .pairs import QUAD_ARC
 from .rates import all_rates, contact_sweeps
 from .records import P_ADH, P_ADHR, P_DMAX, P_DT, P_LX, P_LY, P_NOISE, P_R0, P_SKIN, P_SMAX, P_SWEEPS, P_WALL

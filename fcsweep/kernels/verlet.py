@@ -12,9 +12,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
-from .options import NJIT
+from .options import NJIT, njit
 
 
 @njit(**NJIT)

@@ -10,10 +10,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
 from .geometry import radius_at
-from .options import NJIT
+from .options import NJIT, njit
 from .pairs import QUAD_BINARY
 from ..model.confinement import WALL_CODES
 from .records import P_MUS, P_MUT, P_WALL, P_WALLA, P_WALLB, P_WALLC

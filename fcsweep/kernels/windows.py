@@ -10,11 +10,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from .fourier import fourier6, modes6
 from .geometry import LANES, atan2_fast
-from .options import NJIT
+from .options import NJIT, njit
 
 #: Safety margin of the angular windows, in radians (>> the atan2_fast error).
 WINDOW_MARGIN = 1e-3

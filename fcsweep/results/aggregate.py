@@ -11,7 +11,8 @@ values exactly); a run lacking a value is NaN there.  No interpolation.
 
 Integer labels (``phase``, ``percolated``, ``status``) are int8 with CF ``flag_values``
 and ``flag_meanings``; missing or failed runs are NaN (floats) or the "unknown" flag, and
-``status`` says why. Every observable has its 1-sigma error ``<name>_err``; each label
+``status`` says why; each has its words beside it as a string, ``<label>_label``
+(:func:`add_label_words`). Every observable has its 1-sigma error ``<name>_err``; each label
 its ``<label>_confidence`` and ``<label>_reason`` (a character string per run).
 Labels use the config's ``analysis`` section (``label_confidence``,
 ``percolation_threshold``), stored in the ``analysis_settings`` attribute.
@@ -127,6 +128,7 @@ def build_dataset(config) -> xr.Dataset:
         ds[v] = (dims, arr, {**attrs_of(v), **flag_attrs(reason_flags(v.removesuffix("_reason_code")))})
     settings = {**(read.settings or {}), **config_settings(config)}  # the config's label settings rule the points
     reduce_dataset(ds, settings)
+    add_label_words(ds)
     ds.attrs = _dataset_attrs(config, len(runs), len(read.entries), settings)
     if read.commits:
         ds.attrs["git_commit"] = " ".join(sorted(read.commits))
@@ -309,6 +311,20 @@ def cost_attributes(config) -> dict:
     return out
 
 
+def add_label_words(ds: xr.Dataset) -> None:
+    """Add ``<name>_label``, the words of every int8 label with CF flags (``phase_label``:
+    "solid", "fluid", ...), beside the codes: xarray does not decode ``flag_meanings``.
+    Reason codes get none (their words are the ``<label>_reason`` texts); a code without a
+    meaning reads "unknown"."""
+    for v in list(ds.data_vars):
+        da = ds[v]
+        if da.dtype != np.int8 or "flag_meanings" not in da.attrs or v.endswith("_reason_code"):
+            continue
+        words = dict(zip(np.atleast_1d(da.attrs["flag_values"]).tolist(), str(da.attrs["flag_meanings"]).split()))
+        text = np.array([words.get(int(c), "unknown") for c in da.values.ravel()], dtype=object).reshape(da.shape)
+        ds[f"{v}_label"] = (da.dims, text, {"long_name": f"{v} as a word (the flag_meanings entry of its code)"})
+
+
 def write_dataset(ds: xr.Dataset, path) -> Path:
     """Write ``ds`` as NetCDF4 through :func:`fcsweep.io.sweepdir.atomic_write`: the previous
     dataset stays until the new one is complete (a full disk raises
@@ -320,7 +336,7 @@ def write_dataset(ds: xr.Dataset, path) -> Path:
         if ds[v].dtype.kind == "f":
             bounds = v.endswith("_bounds")
             enc[v] = {"_FillValue": np.nan if v not in ds.coords and not bounds else None}
-        elif v in STRING_VARS:
+        elif v in STRING_VARS or ds[v].dtype == object:
             enc[v] = {"dtype": "S1"}
     return atomic_write(path, lambda tmp: ds.to_netcdf(tmp, format="NETCDF4", engine="netcdf4", encoding=enc),
                         fsync=True)

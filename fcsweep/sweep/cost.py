@@ -254,9 +254,9 @@ def machine_fingerprint() -> dict:
 
     import fcsweep
     from fcsweep.io.machine import available_cores
-    from fcsweep.kernels import CACHE_DIR
+    from fcsweep.kernels import cache_dir
 
-    return {"fcsweep": fcsweep.__version__, "kernels": Path(CACHE_DIR).name, "cpu": _cpu_model(),
+    return {"fcsweep": fcsweep.__version__, "kernels": cache_dir().name, "cpu": _cpu_model(),
             "cores": available_cores(), "machine": platform.machine(), "numba": numba.__version__}
 
 

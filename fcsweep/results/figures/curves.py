@@ -60,7 +60,8 @@ def _per_v0(ds, var, coord, select, draw, ylabel, xlabel, *, sharey=True, axes=N
 @styled
 def q_distributions(ds, *, select=None, axes=None):
     """Shape-index distributions P(q), one panel per v0, one curve per eta, with q* = 3.81
-    and the circle's 2 sqrt(pi) marked.  ``axes``: one Axes per v0 to draw into."""
+    and the circle's 2 sqrt(pi) marked (named in a legend on the first panel).  ``axes``:
+    one Axes per v0 to draw into."""
     def draw(ax, x, y, col):
         ok = np.isfinite(y)
         if ok.any():
@@ -68,10 +69,13 @@ def q_distributions(ds, *, select=None, axes=None):
         return ok.any()
 
     fig, axes = _per_v0(ds, "q_hist", "q_bin", select, draw, "P(q)", "shape index q", axes=axes)
+    marks = ((Q_STAR, dict(color="k", ls="--", lw=0.9), "q* = 3.81"),
+             (2 * np.sqrt(np.pi), dict(color="0.6", ls=":", lw=0.9), r"circle, $2\sqrt{\pi}$ = 3.545"))
     for ax in axes:
-        ax.axvline(Q_STAR, color="k", ls="--", lw=0.9)
-        ax.axvline(2 * np.sqrt(np.pi), color="0.6", ls=":", lw=0.9)
-    axes[0].text(Q_STAR, 0.97, " q* = 3.81", transform=axes[0].get_xaxis_transform(), va="top", fontsize=6.5)
+        for x, style, _ in marks:
+            ax.axvline(x, **style)
+    axes[0].legend(handles=[plt.Line2D([], [], label=text, **style) for _, style, text in marks], loc="upper right",
+                   handlelength=1.6, fontsize=6, framealpha=0.85)
     return fig
 
 

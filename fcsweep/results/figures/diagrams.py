@@ -6,6 +6,7 @@ from __future__ import annotations
 import re
 import textwrap
 
+from matplotlib.collections import LineCollection
 from matplotlib.colors import BoundaryNorm, ListedColormap
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch, Rectangle
@@ -123,6 +124,33 @@ def _point_reasons(ds, keep, select, label="phase") -> np.ndarray:
     return out
 
 
+def level_edges(field, level, ex, ey) -> list[np.ndarray]:
+    """The contour of ``field`` (v0 x eta) at ``level`` drawn on the cell edges: the edge
+    between two neighbouring cells whose values lie on either side of the level (NaN
+    cells have none), as segments ((x0, y0), (x1, y1)) in data coordinates (cell edges
+    ``ex``, ``ey``).
+
+    Each grid point is drawn as a cell, so the contour runs between the cells that
+    bracket the level and never through a cell: an interpolated line (matplotlib's
+    ``contour``) places the level between the points, linearly in eta and v0 although
+    the axes are logarithmic, and can cut through a cell whose own value, and label,
+    lies on the other side (the <q> = 3.81 line through a decided fluid cell)."""
+    f = np.asarray(field, dtype=float)
+    above = f >= level
+    ok = np.isfinite(f)
+    out = []
+    n_v, n_e = f.shape
+    for i in range(n_v):
+        for j in range(n_e):
+            if not ok[i, j]:
+                continue
+            if j + 1 < n_e and ok[i, j + 1] and above[i, j] != above[i, j + 1]:
+                out.append(np.array([[ex[j + 1], ey[i]], [ex[j + 1], ey[i + 1]]]))
+            if i + 1 < n_v and ok[i + 1, j] and above[i, j] != above[i + 1, j]:
+                out.append(np.array([[ex[j], ey[i + 1]], [ex[j + 1], ey[i + 1]]]))
+    return out
+
+
 def _cell_fontsize(ax, n_cols) -> tuple[float, int]:
     """Font size and characters per line of text written inside one of ``n_cols`` cells."""
     width_pt = ax.get_position().width * ax.figure.get_figwidth() * 72.0 / max(n_cols, 1)
@@ -147,7 +175,8 @@ def _eta_v0_axes(ax, eta, v0, ex, ey, log_x: bool, log_y: bool) -> None:
 
 
 def phase_diagram(ds, *, select=None, reasons: bool = True, ax=None):
-    """Phase regions in the (eta, v0) plane, with the <q> = 3.81 and rho_d = 1/2 contours.
+    """Phase regions in the (eta, v0) plane, with the <q> = 3.81 and rho_d = 1/2 contours
+    drawn on the cell edges between the points that bracket them (:func:`level_edges`).
 
     Each grid point is a cell coloured by its phase label (Okabe--Ito: solid blue,
     fluid green, soft fluid orange); ``undetermined`` points (or replicates that
@@ -190,16 +219,20 @@ def phase_diagram(ds, *, select=None, reasons: bool = True, ax=None):
     handles = [Patch(facecolor=PHASE_COLORS[w][0], edgecolor="0.5", label=PHASE_COLORS[w][1],
                      hatch="///" if w == "undetermined" else None)
                for w in order if np.any(words == w)]
-    if len(eta) >= 2 and len(v0) >= 2:
+    if eta.size * v0.size >= 2:
         for var, level, style, label in (("q_mean", Q_STAR, "-", r"$\langle q\rangle = 3.81$"),
                                          ("rho_d", RHO_D_PERCOLATION, "--", r"$\rho_d = 1/2$")):
             if var not in ds:
                 continue
             field = on_plane(ds, var, ("v0", "eta"), select).values
-            f = np.ma.masked_invalid(field)
-            if f.count() >= 4 and np.nanmin(field) < level < np.nanmax(field):
-                ax.contour(eta, v0, f, levels=[level], colors="k", linestyles=style, linewidths=1.5)
-                handles.append(plt.Line2D([], [], color="k", ls=style, lw=1.5, label=label))
+            edges = level_edges(field, level, ex, ey)
+            if edges:
+                lw = 2.6 if style == "-" else 1.1
+                if style == "--":  # white under the dashes: seen inside the <q> line where they share an edge
+                    ax.add_collection(LineCollection(edges, colors="w", linewidths=lw))
+                ax.add_collection(LineCollection(edges, colors="k", linestyles=style, linewidths=lw,
+                                                 gid=f"{var}_contour"))
+                handles.append(plt.Line2D([], [], color="k", ls=style, lw=lw, label=label))
     _eta_v0_axes(ax, eta, v0, ex, ey, log_x, log_y)
     if reasons and undetermined:
         why = _point_reasons(ds, ("v0", "eta"), select)
@@ -310,11 +343,11 @@ def d_eff_curves(ds, *, select=None, ax=None):
     return fig
 
 
-#: Codes of the ``kthny`` label, used where the dataset's variable lacks CF flag attributes.
-#: Marker, colour and legend label of each summary label (:func:`summary_diagram`).
+#: Marker, colour and legend label of each summary label (:func:`summary_diagram`); KTHNY's
+#: "liquid" is drawn and named "fluid", the word every other figure and label uses.
 SUMMARY_STYLE = {"solid": ("h", OKABE_ITO["blue"], "solid"),
                  "hexatic": ("D", OKABE_ITO["sky"], "hexatic"),
-                 "liquid": ("o", OKABE_ITO["green"], "liquid"),
+                 "liquid": ("o", OKABE_ITO["green"], "fluid"),
                  "soft_fluid": ("s", OKABE_ITO["orange"], "soft fluid"),
                  "undetermined": ("o", "#DDDDDD", "undetermined"),
                  "unknown": ("x", "0.6", "not analysed")}
@@ -348,7 +381,7 @@ def summary_labels(ds, select=None) -> np.ndarray:
 def summary_diagram(ds, *, select=None, ax=None):
     """Summary phase diagram in the style of the paper's Fig. 4e: one symbol per grid
     point of the (eta, v0) plane naming its KTHNY label (solid hexagons, hexatic
-    diamonds, liquid circles, soft-fluid squares; undetermined points hatched grey,
+    diamonds, fluid (KTHNY liquid) circles, soft-fluid squares; undetermined points hatched grey,
     :func:`summary_labels`; grid points without a run are left empty).  Needs the
     ``kthny`` variable.
 
