@@ -8,19 +8,17 @@ light):
 >>> frames = sim.run(200, every=2)                                          # doctest: +SKIP
 >>> ds = fcsweep.observables(frames)                                        # doctest: +SKIP
 
-=====================  ==============================================================
-``Simulation``         the engine (:class:`fcsweep.simulation.Simulation`): ``create``,
-                       ``advance``, ``run`` (frames in memory), ``save`` / ``load``
-``SimParams``, ``State``  its parameters and state (:mod:`fcsweep.simulation`)
-``Frames``             recorded frames (:class:`fcsweep.frames.Frames`)
-``observables``        a run's observables, errors and labels as an ``xarray.Dataset``
-                       (:func:`fcsweep.api.observables`)
-``phase_diagram``      a sweep config simulated, analysed and aggregated
-                       (:func:`fcsweep.api.phase_diagram`)
-``AnalysisSettings``   the analysis settings (:class:`fcsweep.model.settings.AnalysisSettings`)
-``load_config``        a sweep YAML file, validated (:func:`fcsweep.config.load_config`)
-``measure``            observables of segmented images (:func:`fcsweep.measure.measure`)
-=====================  ==============================================================
+- ``Simulation``: the engine (:class:`fcsweep.simulation.Simulation`): ``create``, ``advance``,
+  ``run`` (frames in memory), ``save`` / ``load``; ``SimParams`` and ``State``, its parameters
+  and state;
+- ``Frames``: recorded frames (:class:`fcsweep.frames.Frames`);
+- ``observables``: a run's observables, errors and labels as an ``xarray.Dataset``
+  (:func:`fcsweep.api.observables`);
+- ``phase_diagram``: a sweep config simulated, analysed and aggregated
+  (:func:`fcsweep.api.phase_diagram`);
+- ``AnalysisSettings``: the analysis settings (:class:`fcsweep.model.settings.AnalysisSettings`);
+- ``load_config``: a sweep YAML file, validated (:func:`fcsweep.config.load_config`);
+- ``measure``: observables of segmented images (:func:`fcsweep.measure.measure`).
 """
 
 from importlib import import_module

@@ -60,6 +60,9 @@ PERCOLATION_UNDETERMINED = 2
 #: Codes of the percolation label.
 PERCOLATION_FLAGS = {-1: "unknown", 0: "not_percolated", 1: "percolated",
                      PERCOLATION_UNDETERMINED: "undetermined"}
+#: Why a label is undetermined where the equilibration cut reached its limit.
+NOT_STATIONARY = ("the equilibration cut reached its limit (half the frames after the transient): <q> or rho_d "
+                  "still drifts there, so no label is decided on this window; a longer run decides")
 #: Default probability a label needs (the analysis setting ``label_confidence``).
 MIN_CONFIDENCE = LABEL_CONFIDENCE
 
@@ -220,6 +223,9 @@ class PhaseEvidence:
     D_solid_name : str
         Which estimate ``D_solid`` is (``D_eff_cr``, ``D_eff_long`` or ``D_eff``): the
         reasons name it.
+    stationary : bool
+        False where the equilibration cut reached its limit (``equilibration_at_limit``):
+        nothing is decided on that window (:data:`NOT_STATIONARY`).
     """
 
     D_solid: float
@@ -234,6 +240,7 @@ class PhaseEvidence:
     q_err: float
     trust_code: str = "not_diffusive"
     D_solid_name: str = "D_eff"
+    stationary: bool = True
 
 
 def solid_test_name(sc: dict) -> str:
@@ -313,7 +320,8 @@ def phase_evidence(sc: dict, note: str | None = None) -> PhaseEvidence:
     p, cage_note = cage_evidence(sc)
     return PhaseEvidence(D, De, trusted, why, p, cage_note, float(sc.get("D_eff_cr_late", np.nan)),
                          float(sc.get("D_eff_cr_late_err", np.nan)), float(sc.get("q_mean", np.nan)),
-                         float(sc.get("q_mean_err", np.nan)), code, solid_test_name(sc))
+                         float(sc.get("q_mean_err", np.nan)), code, solid_test_name(sc),
+                         not _flag(sc, "equilibration_at_limit"))
 
 
 def phase_label(ev: PhaseEvidence, *, min_confidence: float = MIN_CONFIDENCE, d_solid: float = D_EFF_SOLID,
@@ -331,6 +339,8 @@ def phase_label(ev: PhaseEvidence, *, min_confidence: float = MIN_CONFIDENCE, d_
     -------
     Label
     """
+    if not ev.stationary:
+        return Label(PHASE_UNDETERMINED, float("nan"), NOT_STATIONARY, "not_stationary")
     p_b = ev.p_broken
     if np.isfinite(p_b) and p_b >= min_confidence:
         return _broken_label(ev, min_confidence, d_solid, q_star)
@@ -397,9 +407,12 @@ def _broken_label(ev: PhaseEvidence, min_confidence, d_solid, q_star) -> Label:
 
 
 def classify_percolation(rho_d, rho_d_err, *, min_confidence: float = MIN_CONFIDENCE,
-                         threshold: float = RHO_D_PERCOLATION) -> Label:
-    """Percolation label of one run or point with its confidence and the reason."""
+                         threshold: float = RHO_D_PERCOLATION, stationary: bool = True) -> Label:
+    """Percolation label of one run or point with its confidence and the reason
+    (undetermined, :data:`NOT_STATIONARY`, where the window is not ``stationary``)."""
     r, e = float(rho_d), float(rho_d_err)
+    if not stationary and np.isfinite(r):
+        return Label(PERCOLATION_UNDETERMINED, float("nan"), NOT_STATIONARY, "not_stationary")
     if not np.isfinite(r):
         return Label(-1, float("nan"), "rho_d not available", "not_available")
     if not np.isfinite(e):

@@ -29,7 +29,7 @@ COMBINED = ("D_eff", "D_eff_long", "D_eff_cr", "D_eff_cr_late", "cage_msd_ratio"
 #: Trust flags and counts: a point takes the smallest over its replicates.
 LEAST = ("msd_long_enough", "msd_diffusive", "n_time_blocks")
 #: Flags of the point's evidence taken as the largest over its replicates (NaN counts as 0).
-MOST = ("msd_bounded",)
+MOST = ("msd_bounded", "equilibration_at_limit")
 #: Codes and CF flag meanings of ``phase_hysteresis``.
 HYSTERESIS_UNKNOWN, HYSTERESIS_AGREE, HYSTERESIS_DISAGREE, HYSTERESIS_ONE_SIDED = -1, 0, 1, 2
 HYSTERESIS_FLAGS = {HYSTERESIS_UNKNOWN: "unknown", HYSTERESIS_AGREE: "agree", HYSTERESIS_DISAGREE: "disagree",
@@ -88,7 +88,7 @@ def point_labels(runs, *, min_confidence: float = MIN_CONFIDENCE,
                 else "a replicate's D_eff is not trustworthy (MSD not diffusive)")
     phase = phase_label(phase_evidence(sc, note), min_confidence=min_confidence)
     perc = classify_percolation(sc["rho_d"], sc["rho_d_err"], min_confidence=min_confidence,
-                                threshold=percolation_threshold)
+                                threshold=percolation_threshold, stationary=not sc["equilibration_at_limit"] >= 0.5)
     return phase, perc
 
 

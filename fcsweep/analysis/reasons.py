@@ -84,6 +84,9 @@ REASONS = (
     _R(17, "msd_bounded", "confined run (a well or a channel): the whole-cell MSD is bounded by the walls, so "
                           "D_eff decides nothing; without a cage-relative D_eff_cr solid cannot be decided",
        ("phase",), "MSD bounded by walls"),
+    _R(18, "not_stationary", "the equilibration cut reached its limit (half the frames after the transient): <q> "
+                             "or rho_d still drifts there, so no label is decided on the window",
+       ("phase", "percolated"), "not stationary"),
     _R(20, "near_rho_threshold", "rho_d too close to the percolation threshold", ("percolated",),
        "rho_d near 1/2"),
     _R(21, "decided_rho_d", "rho_d with its error decides", ("percolated",)),

@@ -41,8 +41,8 @@ from fcsweep.analysis.run_order import (KTHNY_SCALARS, OrderFrames, evenly, fram
 
 __all__ = ["AnalysisError", "FramePlan", "RunFrames", "KTHNY_SCALARS", "frame_plan", "evenly", "compute_observables",
            "shape_observables", "structure_observables", "order_observables", "kthny_observables",
-           "diffusion_observables", "label_observables", "equilibrated_frames", "frame_mean", "run_confinement",
-           "confined_structure_observables", "wall_observables", "not_periodic_kthny"]
+           "diffusion_observables", "label_observables", "equilibrated_frames", "cut_at_limit", "frame_mean",
+           "run_confinement", "confined_structure_observables", "wall_observables", "not_periodic_kthny"]
 
 
 class AnalysisError(RuntimeError):
@@ -192,6 +192,7 @@ def compute_observables(run: RunFrames, settings: Mapping, *, curves: bool = Tru
             cv.update({name: (np.zeros(0), np.zeros(0)) for name in ("G6", "Gr", "C_G1")})
     starts = ([] if q_start is None else [q_start]) + [plan.structure_frames[ds["rho_d_start"]]]
     eq = equilibrated_frames(plan.frames, starts)
+    sc["equilibration_at_limit"] = float(cut_at_limit(plan.frames, starts))
     s4, c4, est = diffusion_observables(run, eq, boxr, settings, curves=curves, conf=conf)
     sc.update(s4)
     cv.update(c4)
@@ -420,10 +421,19 @@ def label_observables(sc: Mapping, est, settings: Mapping, Dr: float) -> dict:
     out.update(phase=float(lab.code), phase_confidence=lab.confidence, phase_reason=lab.reason,
                phase_reason_code=float(reason_value(lab.reason_code)))
     lab = classify_percolation(sc["rho_d"], sc["rho_d_err"], min_confidence=conf,
-                               threshold=float(settings["percolation_threshold"]))
+                               threshold=float(settings["percolation_threshold"]),
+                               stationary=not sc.get("equilibration_at_limit", 0.0) >= 0.5)
     out.update(percolated=float(lab.code), percolated_confidence=lab.confidence, percolated_reason=lab.reason,
                percolated_reason_code=float(reason_value(lab.reason_code)))
     return out
+
+
+def cut_at_limit(frames: np.ndarray, starts) -> bool:
+    """Whether the equilibration cut reached its limit (:func:`equilibrated_frames` caps it
+    at half the frames after the transient): a series whose stationary part starts there or
+    later still drifts, and the labels are not decided on that window."""
+    frames = np.asarray(frames)
+    return bool(frames.size >= 3 and len(starts) and max(starts) >= frames[(frames.size - 1) // 2])
 
 
 def equilibrated_frames(frames: np.ndarray, starts) -> np.ndarray:

@@ -113,6 +113,9 @@ OBSERVABLES: dict[str, Observable] = {o.name: o for o in (
     _O("t_start", "run", "time of the first analysed frame"),
     _O("t_end", "run", "time of the last analysed frame"),
     _O("t_equilibrated", "run", "start of the frames used for D_eff after equilibration detection"),
+    _O("equilibration_at_limit", "run", "1 if the equilibration cut reached its limit (half the frames after the "
+                                        "transient): a series still drifts there and no label is decided on the "
+                                        "window; else 0"),
     _O("phase_confidence", "run", "probability of the most probable phase given the errors"),
     _O("percolated_confidence", "run", "probability of the most probable percolation label"),
     _O("D_eff_g_cells", "run", "spatial statistical inefficiency of the squared displacements: N / g cells move "
