@@ -131,7 +131,7 @@ def test_every_page_is_in_the_site():
     """A page added to docs/ shows up in the site's tables of contents (or is excluded on
     purpose in docs/conf.py), and every entry of them is a page."""
     conf = _site_conf()
-    pages = {p.relative_to(SITE).with_suffix("").as_posix() for p in SITE.rglob("*.md")
+    pages = {p.relative_to(SITE).with_suffix("").as_posix() for p in [*SITE.rglob("*.md"), *SITE.rglob("*.ipynb")]
              if not _excluded(p, conf.exclude_patterns)}
     entries = _toctree_entries()
     assert pages - {"index"} <= entries, f"pages in no toctree of docs/index.md: {sorted(pages - entries - {'index'})}"
