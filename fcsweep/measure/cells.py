@@ -39,7 +39,7 @@ import contourpy
 import numpy as np
 from scipy import ndimage
 
-from fcsweep.measure.perimeter import blurred_line, blurred_perimeter, mismatch, polygon_perimeter
+from fcsweep.measure.perimeter import blurred_line, blurred_perimeter, edge_band, mismatch, polygon_perimeter
 
 __all__ = ["measure_cells", "CELL_FIELDS", "fit_radius", "STAR_TOLERANCE", "FIT_POINTS", "SHAPE_FLAGS",
            "ESTIMATORS", "MIN_AREA_PX", "MIN_INSCRIBED_RADIUS_PX", "Q_ERR_COEF", "PARAMETER_COST", "POLYGON_MIN_RADIUS_PX"]
@@ -232,16 +232,19 @@ def _choose(mask, blurred, coef, perim, star, centre, scale):
     mask better, counting each pixel centre it puts on the wrong side as 1 and each parameter of
     the outline as :data:`PARAMETER_COST` (the fit has 2 M + 1, the polygon 2 per vertex); the
     fit only for star-shaped cells; the blurred outline when neither exists."""
-    p_poly, verts = polygon_perimeter(blurred, mask, scale)
     fit_ok = star and np.isfinite(perim)
+    if fit_ok and mask.sum() < np.pi * POLYGON_MIN_RADIUS_PX ** 2:
+        return 1, perim
+    p_poly, verts = polygon_perimeter(blurred, mask, scale)
     padded = np.pad(mask, 1)
-    if fit_ok and len(verts) >= 3 and mask.sum() >= np.pi * POLYGON_MIN_RADIUS_PX ** 2:
+    if fit_ok and len(verts) >= 3:
         t = np.linspace(0, 2 * np.pi, 128, endpoint=False)
         k = np.arange(1, (coef.size - 1) // 2 + 1)
         R = coef[0] + coef[1::2] @ np.cos(np.outer(k, t)) + coef[2::2] @ np.sin(np.outer(k, t))
         curve = np.stack([centre[0] + R * np.cos(t) / scale[0], centre[1] + R * np.sin(t) / scale[1]], 1)
-        fit_ok = (mismatch(padded, curve + 1) + PARAMETER_COST * coef.size
-                  <= mismatch(padded, verts + 1) + PARAMETER_COST * 2 * len(verts))
+        band = edge_band(padded)
+        fit_ok = (mismatch(padded, curve + 1, band) + PARAMETER_COST * coef.size
+                  <= mismatch(padded, verts + 1, band) + PARAMETER_COST * 2 * len(verts))
     if fit_ok:
         return 1, perim
     if len(verts) >= 3:

@@ -30,8 +30,10 @@ import contourpy
 import numpy as np
 from scipy import ndimage
 
-__all__ = ["blurred_line", "polygon_perimeter", "blurred_perimeter", "closed_length", "mismatch", "BLUR", "STEP",
-           "MIN_RUN", "SEARCH_SPAN", "MIN_CORNER_SINE", "MAX_CORNER_SHIFT",
+from fcsweep.measure.runs import ORIENTATIONS, count_outside, digital_runs
+
+__all__ = ["blurred_line", "polygon_perimeter", "blurred_perimeter", "closed_length", "mismatch", "edge_band", "BLUR", "STEP",
+           "MIN_RUN", "MIN_CORNER_SINE", "MAX_CORNER_SHIFT",
            "CORNER_TOLERANCE"]
 
 #: Standard deviation (pixels) of the Gaussian blur of the mask before its sub-pixel outline is traced.
@@ -40,8 +42,6 @@ BLUR = 1.0
 STEP = 0.25
 #: Shortest run (pixels of outline) tried for a straight line.
 MIN_RUN = 1.0
-#: Half-width (radians) of the search for the widest-margin line about the run's least-squares direction.
-SEARCH_SPAN = 0.35
 #: Two consecutive lines meet at a corner only if their directions differ by more than this sine (30
 #: degrees: a smaller turn is a bend of a smooth outline, whose vertex stays on the blurred outline) ...
 MIN_CORNER_SINE = 0.5
@@ -107,22 +107,6 @@ def blurred_perimeter(line: np.ndarray, blur: float = BLUR, scale=(1.0, 1.0)) ->
     return closed_length(line * np.asarray(scale, dtype=float)) + corr * float(np.sqrt(scale[0] * scale[1]))
 
 
-def _widest_margin(inner: np.ndarray, outer: np.ndarray, th0: float):
-    """(gap, normal, offset) of the widest-margin line between the point sets near direction
-    ``th0``: the normal points out of the cell; gap <= 0 when no line near th0 separates them."""
-    best = None
-    for span, num in ((SEARCH_SPAN, 41), (SEARCH_SPAN / 20, 21)):
-        ths = (th0 if best is None else best[3]) + np.linspace(-span, span, num)
-        nrm = np.stack([-np.sin(ths), np.cos(ths)], 1)
-        pi, po = inner @ nrm.T, outer @ nrm.T
-        if po.mean() < pi.mean():
-            nrm, pi, po = -nrm, -pi, -po
-        lo, hi = po.min(0), pi.max(0)
-        j = int(np.argmax(lo - hi))
-        best = (lo[j] - hi[j], nrm[j], 0.5 * (lo[j] + hi[j]), ths[j])
-    return best[:3]
-
-
 def _edge_pixels(mask: np.ndarray, p: np.ndarray):
     """The pixel centres of the mask with a 4-neighbour outside it and those outside with a
     4-neighbour in it, each with the index of its nearest point of ``p``."""
@@ -139,9 +123,9 @@ def _edge_pixels(mask: np.ndarray, p: np.ndarray):
 
 def _line(q: np.ndarray):
     """Centre and unit direction of the total-least-squares line through the points ``q``."""
-    c = q.mean(0)
+    c = q.sum(0) / len(q)
     d = q - c
-    sxx, syy, sxy = (d[:, 0] ** 2).sum(), (d[:, 1] ** 2).sum(), (d[:, 0] * d[:, 1]).sum()
+    sxx, syy, sxy = d[:, 0] @ d[:, 0], d[:, 1] @ d[:, 1], d[:, 0] @ d[:, 1]
     th = 0.5 * np.arctan2(2 * sxy, sxx - syy)
     return c, np.array([np.cos(th), np.sin(th)])
 
@@ -182,41 +166,18 @@ def polygon_perimeter(line: np.ndarray, mask: np.ndarray, scale=(1.0, 1.0)):
     turn = np.abs(ndimage.gaussian_filter1d(np.angle(np.exp(1j * (np.roll(ang, -1) - ang))), 0.5 / h, mode="wrap"))
     start = int(np.argmax(turn))
 
-    def run_line(t0: int, length: int):
-        """(separable, centre, direction) of the run of ``length`` steps from ``t0``."""
+    pts = np.concatenate([inner, outer])
+    at = np.concatenate([at_in, at_out]).astype(np.int64)
+    side = np.concatenate([np.ones(len(inner), bool), np.zeros(len(outer), bool)])
+    order = np.argsort(at, kind="stable")
+    t0s, lengths, ok, normal, offset = digital_runs(np.ascontiguousarray(pts[order]), side[order], at[order], n,
+                                                    start, max(int(MIN_RUN / h), 2), ORIENTATIONS)
+    runs = []
+    for t0, length, good, nrm, off in zip(t0s, lengths, ok, normal, offset):
         c, u = _line(p[np.arange(t0, t0 + length + 1) % n])
-        i = inner[(at_in - t0) % n <= length]
-        o = outer[(at_out - t0) % n <= length]
-        if len(i) == 0 or len(o) == 0:
-            return True, c, u
-        gap, nrm, off = _widest_margin(i, o, np.arctan2(u[1], u[0]))
-        if gap <= 0:
-            return False, c, u
-        return True, c - (nrm @ c - off) * nrm, np.array([nrm[1], -nrm[0]])
-
-    runs, t, end = [], start, start + n
-    first = max(int(MIN_RUN / h), 2)
-    while t < end - 1:
-        room = end - 1 - t
-        good_len = min(first, room)
-        good = run_line(t % n, good_len)
-        bad_len = None
-        while good_len < room:  # doubling, then bisection, for the longest separable run
-            trial = min(2 * good_len, room)
-            r = run_line(t % n, trial)
-            if not r[0]:
-                bad_len = trial
-                break
-            good_len, good = trial, r
-        while bad_len is not None and bad_len - good_len > 1:
-            mid = (good_len + bad_len) // 2
-            r = run_line(t % n, mid)
-            if r[0]:
-                good_len, good = mid, r
-            else:
-                bad_len = mid
-        runs.append((t, good[1], good[2]))
-        t += good_len + 1
+        if good:
+            c, u = c - (nrm @ c - off) * nrm, np.array([nrm[1], -nrm[0]])
+        runs.append((int(t0), c, u))
     verts = []
     for j in range(len(runs)):
         _, c1, d1 = runs[j - 1]
@@ -234,13 +195,17 @@ def polygon_perimeter(line: np.ndarray, mask: np.ndarray, scale=(1.0, 1.0)):
     return closed_length(verts * np.asarray(scale, dtype=float)), verts
 
 
-def mismatch(mask: np.ndarray, outline: np.ndarray) -> int:
+def edge_band(mask: np.ndarray):
+    """(rows, cols) of the pixels within 2 px (a 5 x 5 square) of the mask's edge."""
+    square = np.ones((5, 5), dtype=bool)
+    return np.nonzero(ndimage.binary_dilation(mask, square) & ~ndimage.binary_erosion(mask, square, border_value=0))
+
+
+def mismatch(mask: np.ndarray, outline: np.ndarray, band=None) -> int:
     """Pixels of ``mask`` whose centre the closed ``outline`` (pixel coordinates: pixel ``(r, c)``
     at ``(c, r)``) puts on the wrong side: how well the outline, digitised as the image was,
-    reproduces the mask (0 for the outline that made it)."""
-    from matplotlib.path import Path
-
-    ny, nx = mask.shape
-    gx, gy = np.meshgrid(np.arange(nx, dtype=float), np.arange(ny, dtype=float))
-    inside = Path(outline).contains_points(np.stack([gx.ravel(), gy.ravel()], 1)).reshape(mask.shape)
-    return int(np.count_nonzero(inside != mask))
+    reproduces the mask (0 for the outline that made it).  Only the pixels of ``band``
+    (default :func:`edge_band`) are tested: the outlines compared stay within a pixel of the edge."""
+    rows, cols = edge_band(mask) if band is None else band
+    return int(count_outside(cols.astype(np.float64), rows.astype(np.float64), mask[rows, cols],
+                             np.ascontiguousarray(outline, dtype=np.float64)))

@@ -18,7 +18,9 @@ cannot run code.  Only its ``masks`` entry is used.
 
 from __future__ import annotations
 
+import contextlib
 import io
+import logging
 import os
 import pickle
 from pathlib import Path
@@ -26,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["MeasureInputError", "iter_frames", "read_seg_npy", "check_frame", "available_memory", "tiff_metadata",
-           "relabel", "BYTES_PER_PIXEL", "IMAGE_SUFFIXES", "RELABEL_ABOVE"]
+           "relabel", "readable", "BYTES_PER_PIXEL", "IMAGE_SUFFIXES", "RELABEL_ABOVE"]
 
 #: Bytes of work memory per pixel the measurement of one frame needs (measured ~52 at 4096^2:
 #: the int64 frame and the previous one, the tracking overlap, the contact pairs, the relabelling).
@@ -273,7 +275,7 @@ def tiff_metadata(path) -> dict:
     ``imagej`` (the ImageJ metadata dict or None) and ``resolution`` (the first page's
     ``XResolution``, ``YResolution`` rationals, or None)."""
     tifffile = _need("tifffile")
-    with tifffile.TiffFile(path) as tif:
+    with readable(path), tifffile.TiffFile(path) as tif:
         tags = tif.pages[0].tags
         res = None
         if "XResolution" in tags:
@@ -296,13 +298,20 @@ def _frames_of_png(path: Path):
 _KIND = {".tif": "TIFF", ".tiff": "TIFF", ".png": "PNG", ".npy": ".npy"}
 
 
-def _frames_of_file(path: Path):
-    """The frames of one file; whatever its reader raises becomes one line naming the file."""
+@contextlib.contextmanager
+def readable(path):
+    """Turn whatever a reader raises on ``path`` into one :class:`MeasureInputError` line naming
+    the file (an empty file is named as such); the readers' own log messages are silenced."""
+    path = Path(path)
     kind = _KIND.get(path.suffix.lower(), "label image")
+    quiet = [logging.getLogger(name) for name in ("tifffile", "PIL")]
+    levels = [lg.level for lg in quiet]
+    for lg in quiet:
+        lg.setLevel(logging.CRITICAL + 1)
     try:
-        if path.stat().st_size == 0:
+        if path.is_file() and path.stat().st_size == 0:
             raise MeasureInputError(f"{path}: empty file")
-        yield from _read_file(path)
+        yield
     except (MeasureInputError, ImportError):
         raise
     except MemoryError:
@@ -311,6 +320,15 @@ def _frames_of_file(path: Path):
         text = str(exc).strip().splitlines()
         raise MeasureInputError(f"{path}: not a readable {kind} file ({type(exc).__name__}"
                                 f"{': ' + text[0] if text else ''})") from None
+    finally:
+        for lg, level in zip(quiet, levels):
+            lg.setLevel(level)
+
+
+def _frames_of_file(path: Path):
+    """The frames of one file; whatever its reader raises becomes one line naming the file."""
+    with readable(path):
+        yield from _read_file(path)
 
 
 def _read_file(path: Path):

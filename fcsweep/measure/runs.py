@@ -1,0 +1,179 @@
+"""Compiled helpers of the polygon estimator (:mod:`fcsweep.measure.perimeter`): the cut of a
+cell's boundary pixels into maximal digital straight runs with their widest-margin lines, and
+the even-odd point-in-polygon count of mismatched pixels.
+
+A run is digitally straight while some line separates its boundary pixel centres inside the
+cell from those outside it; the test runs over :data:`ORIENTATIONS` directions (the extremes
+of the projections are kept as the run grows, so a run costs its pixels times the
+directions), and the chosen line is the one of widest margin, refined about the best
+direction to a twentieth of the grid's step.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from fcsweep.kernels.options import njit
+
+__all__ = ["digital_runs", "count_outside", "ORIENTATIONS"]
+
+#: Directions (over 180 degrees) on which a run's boundary pixels are tested for a separating line.
+ORIENTATIONS = 120
+_BIG = 1e300
+
+
+@njit(cache=True, error_model="numpy")
+def _gaps(pts, side, at, k0, t, n, length, nx, ny, gap, sign, offset):
+    """Margin, outward sign and offset of the separating line at each direction (nx, ny) for the
+    pixels from index k0 on whose relative sample is <= length from sample t; gap <= 0 where none
+    separates."""
+    m = nx.size
+    N = pts.shape[0]
+    for a in range(m):
+        hi_in = -_BIG
+        lo_in = _BIG
+        hi_out = -_BIG
+        lo_out = _BIG
+        for j in range(N):
+            k = (k0 + j) % N
+            if (at[k] - t) % n > length:
+                break
+            v = pts[k, 0] * nx[a] + pts[k, 1] * ny[a]
+            if side[k]:
+                hi_in = max(hi_in, v)
+                lo_in = min(lo_in, v)
+            else:
+                hi_out = max(hi_out, v)
+                lo_out = min(lo_out, v)
+        g1 = lo_out - hi_in
+        g2 = lo_in - hi_out
+        if g1 >= g2:
+            gap[a], sign[a], offset[a] = g1, 1.0, 0.5 * (lo_out + hi_in)
+        else:
+            gap[a], sign[a], offset[a] = g2, -1.0, -0.5 * (lo_in + hi_out)
+
+
+@njit(cache=True, error_model="numpy")
+def digital_runs(pts, side, at, n, start, first, orientations):
+    """Maximal digitally straight runs of a closed outline of ``n`` samples.
+
+    Parameters
+    ----------
+    pts : float64 (N, 2)
+        Boundary pixel centres, sorted by ``at``.
+    side : bool (N,)
+        True for a centre inside the cell.
+    at : int64 (N,)
+        Index of the outline sample each centre is attached to (sorted).
+    n, start, first : int
+        Samples of the outline, the sample where the first run starts, the shortest run.
+    orientations : int
+
+    Returns
+    -------
+    t, length : int64 (R,)
+        First sample and length (samples) of each run.
+    ok : bool (R,)
+        The run's pixels are separable (else the line is left to the caller).
+    normal, offset : float64 (R, 2), (R,)
+        The widest-margin line ``normal . x = offset``, normal pointing out of the cell.
+    """
+    N = pts.shape[0]
+    nx = np.empty(orientations)
+    ny = np.empty(orientations)
+    for a in range(orientations):
+        th = np.pi * a / orientations
+        nx[a] = -np.sin(th)
+        ny[a] = np.cos(th)
+    hi_in = np.empty(orientations)
+    lo_in = np.empty(orientations)
+    hi_out = np.empty(orientations)
+    lo_out = np.empty(orientations)
+    gap = np.empty(orientations)
+    sign = np.empty(orientations)
+    offset = np.empty(orientations)
+    fine = 21
+    fx = np.empty(fine)
+    fy = np.empty(fine)
+    fgap = np.empty(fine)
+    fsign = np.empty(fine)
+    foff = np.empty(fine)
+    out_t = np.empty(n, np.int64)
+    out_len = np.empty(n, np.int64)
+    out_ok = np.zeros(n, np.bool_)
+    out_nrm = np.zeros((n, 2))
+    out_off = np.zeros(n)
+    r = 0
+    t = start
+    end = start + n
+    while t < end - 1:
+        room = end - 1 - t
+        k0 = np.searchsorted(at, t % n)
+        for a in range(orientations):
+            hi_in[a] = -_BIG
+            lo_in[a] = _BIG
+            hi_out[a] = -_BIG
+            lo_out[a] = _BIG
+        fail = -1
+        for j in range(N):
+            k = (k0 + j) % N
+            rel = (at[k] - t) % n
+            if rel > room:
+                break
+            anyok = False
+            for a in range(orientations):
+                v = pts[k, 0] * nx[a] + pts[k, 1] * ny[a]
+                if side[k]:
+                    hi_in[a] = max(hi_in[a], v)
+                    lo_in[a] = min(lo_in[a], v)
+                else:
+                    hi_out[a] = max(hi_out[a], v)
+                    lo_out[a] = min(lo_out[a], v)
+                if not anyok and (lo_out[a] - hi_in[a] > 0 or lo_in[a] - hi_out[a] > 0):
+                    anyok = True
+            if not anyok:
+                fail = rel
+                break
+        length = room if fail < 0 else min(room, max(fail - 1, first))
+        _gaps(pts, side, at, k0, t, n, length, nx, ny, gap, sign, offset)
+        best = np.argmax(gap)
+        ok = gap[best] > 0 and gap[best] < 1e200
+        if ok:  # refine about the best direction
+            th0 = np.pi * best / orientations
+            for f in range(fine):
+                th = th0 + (f - fine // 2) * (np.pi / orientations) / (fine // 2)
+                fx[f] = -np.sin(th)
+                fy[f] = np.cos(th)
+            _gaps(pts, side, at, k0, t, n, length, fx, fy, fgap, fsign, foff)
+            b = np.argmax(fgap)
+            out_nrm[r, 0] = fsign[b] * fx[b]
+            out_nrm[r, 1] = fsign[b] * fy[b]
+            out_off[r] = foff[b]
+        out_t[r] = t
+        out_len[r] = length
+        out_ok[r] = ok
+        r += 1
+        t += length + 1
+    return out_t[:r], out_len[:r], out_ok[:r], out_nrm[:r], out_off[:r]
+
+
+@njit(cache=True, error_model="numpy")
+def count_outside(px, py, inside, poly):
+    """Pixels (px, py) whose side of the closed polygon ``poly`` (V, 2), by the even-odd rule,
+    differs from ``inside``."""
+    count = 0
+    V = poly.shape[0]
+    for k in range(px.size):
+        x, y = px[k], py[k]
+        c = False
+        j = V - 1
+        for i in range(V):
+            yi, yj = poly[i, 1], poly[j, 1]
+            if (yi > y) != (yj > y):
+                xc = poly[i, 0] + (y - yi) * (poly[j, 0] - poly[i, 0]) / (yj - yi)
+                if x < xc:
+                    c = not c
+            j = i
+        if c != inside[k]:
+            count += 1
+    return count
