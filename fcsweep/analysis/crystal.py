@@ -45,9 +45,15 @@ slower is not told from a solid's creep (v* = 2.4·10⁻³ R0/τ at ρ = 0.95: 0
 500 time units at N = 1024). With ``v`` Gaussian about its estimate:
 
 - *not solid* if the crystal is gone: the mean of ``f`` over the last quarter of the frames
-  is below :data:`FLUID_LEVEL` with probability ``>= min_confidence``; or if
-  ``P(v < -v*) >= min_confidence`` (the crystal melts);
-- *solid* if ``P(v > -v*) >= min_confidence`` (the reason says whether it grows,
+  is below :data:`FLUID_LEVEL` with probability ``>= min_confidence``;
+- *solid* if the crystal has filled the box: that mean is above :data:`FILLED_LEVEL`
+  (midway between the start's 1/2 and a perfect crystal) with that probability. Both end
+  states hold no interface, so they are read first; a crystal grown at η = 0.1,
+  v0 = 0.01 levels off at 0.89 (grain boundaries) after 300 time units, where a straight
+  line through the whole run no longer describes ``f``;
+- otherwise both interfaces are still there and ``v`` is read from the slope after the
+  settling time: *not solid* if ``P(v < -v*) >= min_confidence`` (the crystal melts),
+  *solid* if ``P(v > -v*) >= min_confidence`` (the reason says whether it grows,
   ``P(v > 0) >= min_confidence``, or stays);
 - otherwise *undetermined* with the reason (too few frames or effective samples, or ``v``
   within its error of ``-v*``: a longer run decides).
@@ -72,15 +78,17 @@ from fcsweep.analysis.phase import MIN_CONFIDENCE
 from fcsweep.analysis.stats import C_WINDOW, time_average
 from fcsweep.analysis.voronoi import voronoi_neighbors
 
-__all__ = ["CRYSTAL_COHERENCE", "FLUID_LEVEL", "SETTLE_TIME", "MIN_FRAMES", "MIN_SLOPE_SAMPLES", "COEXISTENCE_UNKNOWN",
-           "COEXISTENCE_SOLID", "COEXISTENCE_NOT_SOLID", "COEXISTENCE_UNDETERMINED", "COEXISTENCE_FLAGS",
-           "COEXISTENCE_REASONS", "CrystalTrend", "CoexistenceLabel", "crystalline", "crystal_fraction",
-           "crystal_trend", "solid_speed", "phase_coexistence"]
+__all__ = ["CRYSTAL_COHERENCE", "FLUID_LEVEL", "FILLED_LEVEL", "SETTLE_TIME", "MIN_FRAMES", "MIN_SLOPE_SAMPLES",
+           "COEXISTENCE_UNKNOWN", "COEXISTENCE_SOLID", "COEXISTENCE_NOT_SOLID", "COEXISTENCE_UNDETERMINED",
+           "COEXISTENCE_FLAGS", "COEXISTENCE_REASONS", "CrystalTrend", "CoexistenceLabel", "crystalline",
+           "crystal_fraction", "crystal_trend", "solid_speed", "phase_coexistence"]
 
 #: Smallest ``Re(psi6_i psi6_j^*)`` a crystalline cell has with each of its six neighbours.
 CRYSTAL_COHERENCE = 0.5
 #: Crystal fraction below which the crystal is gone (flowing fluids hold 0.000-0.004).
 FLUID_LEVEL = 0.05
+#: Crystal fraction above which the crystal has filled the box (the start holds 1/2).
+FILLED_LEVEL = 0.75
 #: Time units after the start left out of the slope (the interfaces' roughening).
 SETTLE_TIME = 20.0
 #: Fewest frames (after :data:`SETTLE_TIME`) a label is taken on (fewer give no trustworthy
@@ -103,6 +111,7 @@ COEXISTENCE_REASONS = {
     "crystal_stays": "the crystal recedes slower than v*: solid",
     "crystal_melts": "the crystal recedes faster than v*: not solid",
     "crystal_melted": "the crystal fraction fell to the fluid's level: not solid",
+    "crystal_filled": "the crystal fraction rose to the filled level: solid",
     "near_v_threshold": "the interface speed is within its error of -v*: a longer run decides",
 }
 
@@ -220,6 +229,11 @@ def _line_residual_time(r: np.ndarray) -> float:
     return float(min(max(taus[M] / max(1.0 - 4.0 * M / r.size, 0.25), 1.0), r.size))
 
 
+def _p_above(x: float, threshold: float, err: float) -> float:
+    """P(x - threshold > 0) for a Gaussian difference of error ``err`` (0: a step)."""
+    return float(ndtr((x - threshold) / err)) if err > 0 else float(x > threshold)
+
+
 def solid_speed(height: float, n_rows: int, d_solid: float = D_EFF_SOLID) -> float:
     """``v* = 4 D_s / h``, ``h = height / n_rows`` the lattice's row spacing (R0 per time unit)."""
     return 4.0 * d_solid * n_rows / float(height)
@@ -292,11 +306,15 @@ def phase_coexistence(t, f, box, N: int, *, min_confidence: float = MIN_CONFIDEN
                                 f"{tk.size} frames after the first {settle_time:g} time units; "
                                 f"{MIN_FRAMES} needed", "too_few_frames")
     last = time_average(fk[-max(4, fk.size // 4):], equilibrate=False)
-    p_gone = float(ndtr((FLUID_LEVEL - last.mean) / last.err)) if last.err > 0 else float(last.mean < FLUID_LEVEL)
+    p_gone = _p_above(FLUID_LEVEL, last.mean, last.err)
+    end = f"crystal fraction {last.mean:.3f} ± {last.err:.1g} over the last quarter"
     if p_gone >= min_confidence:
         return CoexistenceLabel(COEXISTENCE_NOT_SOLID, p_gone,
-                                f"the crystal melted: crystal fraction {last.mean:.3f} ± {last.err:.1g} over the "
-                                f"last quarter, below the fluid's level {FLUID_LEVEL:g}", "crystal_melted")
+                                f"the crystal melted: {end}, below the fluid's level {FLUID_LEVEL:g}", "crystal_melted")
+    p_filled = _p_above(last.mean, FILLED_LEVEL, last.err)
+    if p_filled >= min_confidence:
+        return CoexistenceLabel(COEXISTENCE_SOLID, p_filled,
+                                f"solid: the crystal filled the box: {end}, above {FILLED_LEVEL:g}", "crystal_filled")
     trend = crystal_trend(tk, fk)
     v, v_err = trend.slope * height / 2.0, trend.slope_err * height / 2.0
     if not (np.isfinite(v_err) and trend.n_eff >= MIN_SLOPE_SAMPLES):
