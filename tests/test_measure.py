@@ -53,15 +53,16 @@ def _exact_rho_d(ds, pos, theta, a, b, fov):
 
 @pytest.mark.parametrize("res", [5, 10, 20])
 def test_q_and_rho_d_of_rendered_model_cells(res):
-    """Model cells (modes 2..6) rasterised at 5 / 10 / 20 px per R0: the M = 6 fit gives the
-    model's <q> within 1 % (measured 0.3 / 0.2 / 0.0 %; the marching-squares contour is
-    ~5 % high at every resolution), and rho_d within 0.02 of the exact centroids' (measured
-    <= 0.01 at 5 px, 0 at 10 and 20 px over ~310 classified cells)."""
+    """Model cells (modes 2..6) rasterised at 5 / 10 / 20 px per R0: q gives the model's <q> within
+    0.4 / 0.15 / 0.15 % (docs/measure.md: <= 0.3 % at 5 px, <= 0.1 % at 10 and 20; the smooth cells
+    take the M = 6 fit; the marching-squares contour is ~5 % high at every resolution), and rho_d
+    within 0.02 of the exact centroids' (measured <= 0.01 at 5 px, 0 at 10 and 20 px over ~310
+    classified cells)."""
     pos, theta, a, b, fov = _scene(20, 1, 3.0, 20)
     ds = measure(render(pos, theta, a, b, res, fov), 1.0 / res).isel(time=0)
     whole = (ds.label.values > 0) & (ds.edge_cut.values == 0)
     q_exact = exact_q(a, b)[ds.label.values[whole] - 1].mean()
-    assert ds.q_mean.item() == pytest.approx(q_exact, rel=0.01)
+    assert ds.q_mean.item() == pytest.approx(q_exact, rel={5: 0.004, 10: 0.0015, 20: 0.0015}[res])
     q_contour = (ds.perimeter_contour / np.sqrt(ds.area)).values[whole].mean()
     assert q_contour > 1.03 * q_exact  # the bias the fit removes
     assert ds.n_classified.item() > 250

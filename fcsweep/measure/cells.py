@@ -62,7 +62,7 @@ POLYGON_MIN_RADIUS_PX = 8.0
 PARAMETER_COST = 0.5
 #: Per-cell rms relative error of q times the equivalent radius sqrt(A / pi) in pixels, per estimator
 #: (measured on the validation shapes, docs/measure.md): ``q_err = q * Q_ERR_COEF[k] / R_px``.
-Q_ERR_COEF = {1: 0.06, 2: 0.15, 3: 0.10}
+Q_ERR_COEF = {1: 0.06, 2: 0.10, 3: 0.10}
 #: Total backward turn (radians) of the contour's polar angle about the centroid above which a
 #: cell is not star-shaped (a pixel contour of a star-shaped cell turns back by far less).
 STAR_TOLERANCE = 0.05

@@ -18,7 +18,7 @@ from fcsweep.kernels.options import njit
 __all__ = ["digital_runs", "count_outside", "ORIENTATIONS"]
 
 #: Directions (over 180 degrees) on which a run's boundary pixels are tested for a separating line.
-ORIENTATIONS = 120
+ORIENTATIONS = 180
 _BIG = 1e300
 
 
