@@ -1,17 +1,22 @@
 """Measure the numbers the README and the config comments quote; write them to one place.
 
-Writes ``benchmarks/results/readme_numbers.json``: the demo's wall times, the size of the
-test suite, and the CPU cost of every ``configs/*.yaml`` from the cost model
-(:mod:`fcsweep.sweep.cost`), with the date and the machine's load.  The README and the
-pages of docs/ quote these numbers (``quotes``: a regex and the text it must find, checked
-by ``tests/test_docs_code.py``; the test count is also checked against the tests pytest
-collects), and each config carries a generated ``# cost:`` comment line.  The quotes of
-the numbers measured in a call are rewritten in README.md and docs/*.md.
+Writes ``benchmarks/results/readme_numbers.json``: the first hour's wall times without the
+install (``fcsweep compile`` from a cold cache in a temporary ``NUMBA_CACHE_DIR``, the
+demo's ``simulate``, ``analyze`` + ``aggregate`` + ``plot`` and ``movie 0`` in a fresh
+directory with those kernels), the size of the test suite (its time only with
+``--suite``), and the CPU cost of every ``configs/*.yaml`` from the cost model
+(:mod:`fcsweep.sweep.cost`), with the date and the machine's load (a loaded machine
+gives longer times: the load average is recorded beside them).  The README and the pages
+of docs/ quote these numbers (``quotes``: a regex and the text it must find, checked by
+``tests/test_docs_code.py``; the test count is also checked against the tests pytest
+collects), and each config carries a generated ``# cost:`` comment line.  Unless
+``--no-rewrite``, the quotes of the numbers measured in a call are rewritten in README.md
+and docs/*.md; ``--rewrite-only`` rewrites them from the file without measuring.
 
 Usage:
-    python benchmarks/readme_numbers.py                 # everything (a few minutes)
+    python benchmarks/readme_numbers.py                 # everything but the suite (about 10 min)
     python benchmarks/readme_numbers.py --only configs  # re-cost the configs and rewrite their cost lines
-    python benchmarks/readme_numbers.py --only demo --only tests
+    python benchmarks/readme_numbers.py --only compile --only demo --no-rewrite
     python benchmarks/readme_numbers.py --only tests    # the test count, after tests were added
     python benchmarks/readme_numbers.py --suite         # also time the default test suite (minutes)
 """
@@ -37,19 +42,31 @@ FCSWEEP = [sys.executable, "-m", "fcsweep.cli"]
 NO_COST_LINE = ("smoke.yaml",)
 
 
-def _wall(args, cwd) -> float:
+def _wall(args, cwd, env=None) -> float:
     t0 = time.perf_counter()
-    subprocess.run(FCSWEEP + args, cwd=cwd, check=True, capture_output=True)
+    subprocess.run(FCSWEEP + args, cwd=cwd, check=True, capture_output=True, env=env)
     return time.perf_counter() - t0
 
 
-def measure_demo() -> dict:
-    """Wall seconds of ``fcsweep simulate`` (built-in demo, fresh directory, kernels cached)
-    and of ``analyze`` + ``aggregate`` + ``plot`` on it."""
+def measure_first_hour(compile_cold: bool = True, demo: bool = True) -> dict:
+    """Wall seconds of ``fcsweep compile`` from an empty cache (a temporary
+    ``NUMBA_CACHE_DIR``, so the user's cache is neither used nor touched), then, with
+    those kernels, of the built-in demo in a fresh directory: ``simulate``, ``analyze`` +
+    ``aggregate`` + ``plot``, and ``movie 0``.  Without ``compile_cold`` the demo uses
+    the usual cache (compiled first if cold, untimed)."""
+    out = {}
     with tempfile.TemporaryDirectory() as tmp:
-        sim = _wall(["simulate", "-q"], tmp)
-        ana = sum(_wall([c], tmp) for c in ("analyze", "aggregate", "plot"))
-    return {"demo_simulate_s": round(sim, 1), "demo_analysis_s": round(ana, 1)}
+        env = dict(os.environ)
+        if compile_cold:
+            env["NUMBA_CACHE_DIR"] = str(Path(tmp) / "numba-cache")
+            out["compile_cold_s"] = round(_wall(["compile"], tmp, env), 1)
+        else:
+            _wall(["compile"], tmp, env)
+        if demo:
+            out["demo_simulate_s"] = round(_wall(["simulate", "-q"], tmp, env), 1)
+            out["demo_analysis_s"] = round(sum(_wall([c], tmp, env) for c in ("analyze", "aggregate", "plot")), 1)
+            out["demo_movie_s"] = round(_wall(["movie", "0"], tmp, env), 1)
+    return out
 
 
 def count_tests() -> dict:
@@ -146,6 +163,11 @@ def quotes(data: dict) -> list[dict]:
                "text": _fmt_s(data["demo_simulate_s"])},
               {"key": "demo_analysis_s", "pattern": r"`analyze` \+ `aggregate` \+\s+`plot` \*\*([^*]+)\*\*",
                "text": _fmt_s(data["demo_analysis_s"])}]
+    # the compile and movie times are quoted once a document says them this way
+    for key, pattern in (("compile_cold_s", r"`fcsweep compile` from a cold cache took\s+\*\*([^*]+)\*\*"),
+                         ("demo_movie_s", r"`fcsweep movie 0` on the demo took\s+\*\*([^*]+)\*\*")):
+        if key in data and any(re.search(pattern, doc.read_text()) for doc in QUOTING):
+            q.append({"key": key, "pattern": pattern, "text": _fmt_s(data[key])})
     if "tests_default" in data:
         q += [{"key": "tests_default", "pattern": r"the test suite \((\d+) tests",
                "text": str(data["tests_default"])},
@@ -168,7 +190,8 @@ def quotes(data: dict) -> list[dict]:
 #: The documents that quote the numbers.
 QUOTING = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
 #: Keys of the quotes each part measures.
-MEASURES = {"demo": ("demo_simulate_s", "demo_analysis_s"), "tests": ("tests_default",), "suite": ("suite_wall_s",)}
+MEASURES = {"compile": ("compile_cold_s",), "demo": ("demo_simulate_s", "demo_analysis_s", "demo_movie_s"),
+            "tests": ("tests_default",), "suite": ("suite_wall_s",)}
 
 
 def rewrite_quotes(data: dict, keys) -> list[str]:
@@ -189,14 +212,23 @@ def rewrite_quotes(data: dict, keys) -> list[str]:
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--only", action="append", choices=["demo", "tests", "configs"],
+    ap.add_argument("--only", action="append", choices=["compile", "demo", "tests", "configs"],
                     help="measure only these parts (repeatable); the others keep their values")
     ap.add_argument("--suite", action="store_true", help="also time the default test suite")
+    ap.add_argument("--no-rewrite", action="store_true", help="write the json only, not the quotes in the docs")
+    ap.add_argument("--rewrite-only", action="store_true",
+                    help="measure nothing: put the json's numbers into the docs' quotes")
     a = ap.parse_args(argv)
-    parts = set(a.only or ["demo", "tests", "configs"])
     data = json.loads(OUT.read_text()) if OUT.exists() else {}
-    if "demo" in parts:
-        data.update(measure_demo())
+    if a.rewrite_only:
+        data["quotes"] = quotes(data)
+        OUT.write_text(json.dumps(data, indent=1, sort_keys=True) + "\n")
+        for doc in rewrite_quotes(data, {q["key"] for q in data["quotes"]}):
+            print(f"rewrote the quoted numbers in {doc}")
+        return
+    parts = set(a.only or ["compile", "demo", "tests", "configs"])
+    if parts & {"compile", "demo"}:
+        data.update(measure_first_hour("compile" in parts, "demo" in parts))
     if "tests" in parts:
         data.update(count_tests())
     if a.suite:
@@ -211,7 +243,7 @@ def main(argv=None):
     data["quotes"] = quotes(data)
     OUT.write_text(json.dumps(data, indent=1, sort_keys=True) + "\n")
     measured = {k for part in parts | ({"suite"} if a.suite else set()) for k in MEASURES.get(part, ())}
-    for doc in rewrite_quotes(data, measured):
+    for doc in ([] if a.no_rewrite else rewrite_quotes(data, measured)):
         print(f"rewrote the quoted numbers in {doc}")
     print(json.dumps({k: v for k, v in data.items() if k not in ("configs", "quotes")}, indent=1))
 

@@ -516,3 +516,73 @@ def test_summary_diagram_leaves_grid_points_without_a_run_empty():
     gids = {c.get_gid(): len(c.get_offsets()) for c in ax.collections}
     assert "none" not in gids and gids["unknown"] == 1
     matplotlib.pyplot.close("all")
+
+
+def test_threshold_contours_run_on_cell_edges_between_the_points_that_bracket_them():
+    """<q> = 3.81 on a 2 x 2 log grid (the demo's): the line is the edges between a cell
+    above and its neighbours below, nowhere inside a cell (an interpolated contour, linear
+    in eta on the log axis, ran three quarters into the fluid cell beside a soft fluid)."""
+    from fcsweep.results.figures.common import cell_edges
+    from fcsweep.results.figures.diagrams import level_edges
+
+    eta, v0 = np.array([0.01, 0.3]), np.array([0.02, 0.2])
+    ex, ey = cell_edges(eta, True), cell_edges(v0, True)
+    q = np.array([[3.60, 3.56], [3.96, 3.60]])  # rows v0, columns eta: soft fluid at (0.01, 0.2)
+    segs = level_edges(q, 3.81, ex, ey)
+    assert len(segs) == 2
+    mid_x, mid_y = ex[1], ey[1]  # the inner cell edges
+    assert {tuple(map(tuple, s)) for s in segs} == {((mid_x, ey[1]), (mid_x, ey[2])), ((ex[0], mid_y), (ex[1], mid_y))}
+    nan_segs = level_edges(np.array([[3.6, np.nan], [3.9, 3.7]]), 3.81, ex, ey)
+    assert len(nan_segs) == 2  # (0,0)-(1,0) and (1,0)-(1,1); none to the NaN cell
+    ds = synthetic_dataset(etas=(0.01, 0.3), v0s=(0.02, 0.2), Ns=(64,))
+    ds["q_mean"][:] = q.T[..., None, None]
+    ax = plots.phase_diagram(ds).axes[0]
+    (line,) = [c for c in ax.collections if c.get_gid() == "q_mean_contour"]
+    assert len(line.get_segments()) == 2
+    for seg in line.get_segments():  # every point on a cell edge
+        assert all(np.isclose(x, ex).any() or np.isclose(y, ey).any() for x, y in seg)
+    matplotlib.pyplot.close("all")
+
+
+def test_summary_legend_says_fluid_as_every_other_figure():
+    ds = _with_kthny(with_statistics(synthetic_dataset()))
+    ax = plots.summary_diagram(ds).axes[0]
+    words = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert "fluid" in words and "liquid" not in words
+    matplotlib.pyplot.close("all")
+
+
+def test_q_distribution_marks_and_the_defect_colour_have_legends():
+    fig = plots.q_distributions(synthetic_dataset())
+    words = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    assert any("3.81" in w for w in words) and any("3.545" in w for w in words)
+    pos, box = hexagonal_lattice(16)
+    fig = plots.snapshot(pos, np.zeros(16), None, None, box, np.full(16, 3.7), np.arange(16) == 3)
+    texts = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
+    assert texts == ["defect (not 6 Voronoi neighbours)"]
+    matplotlib.pyplot.close("all")
+
+
+def test_labels_have_their_words_beside_the_codes():
+    """phase_label etc. are the flag_meanings of the codes (xarray does not decode them),
+    written as strings to the NetCDF file and read back as words; reason codes get none."""
+    from fcsweep.results.aggregate import add_label_words
+
+    ds = with_statistics(synthetic_dataset())
+    ds["phase_reason_code"] = xr.zeros_like(ds["phase"]).assign_attrs(flag_values=np.array([0], np.int8),
+                                                                      flag_meanings="not_recorded")
+    add_label_words(ds)
+    words = dict(zip([-1, 0, 1, 2, 3], "unknown solid fluid soft_fluid undetermined".split()))
+    assert "phase_label" in ds and "phase_reason_code_label" not in ds
+    assert [words[int(c)] for c in ds["phase"].values.ravel()] == list(ds["phase_label"].values.ravel())
+    assert "undetermined" in ds["phase_label"].values
+
+
+def test_label_words_survive_the_netcdf_file(tmp_path):
+    from fcsweep.results.aggregate import add_label_words, write_dataset
+
+    ds = with_statistics(synthetic_dataset())[["phase"]]
+    add_label_words(ds)
+    back = xr.open_dataset(write_dataset(ds, tmp_path / "d.nc"))
+    assert back["phase_label"].values.tolist() == ds["phase_label"].values.tolist()
+    back.close()

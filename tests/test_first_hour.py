@@ -16,8 +16,10 @@ import pytest
 
 
 def _python(code: str, env=None) -> str:
+    """Run ``code`` in a new interpreter (``env`` added to this one's; None removes a name)."""
+    full = {k: v for k, v in {**os.environ, **(env or {})}.items() if v is not None}
     out = subprocess.run([sys.executable, "-c", textwrap.dedent(code)], capture_output=True, text=True,
-                         env={**os.environ, **(env or {})}, timeout=600)
+                         env=full, timeout=600)
     assert out.returncode == 0, out.stderr[-3000:]
     return out.stdout
 
@@ -52,9 +54,25 @@ def test_a_users_own_cached_function_is_cached_where_numba_puts_it(tmp_path):
         import fcsweep.kernels.step  # the kernels are decorated
         import user_mod
         assert user_mod.twice(2) == 4
-    """, env={"XDG_CACHE_HOME": str(cache)})
+    """, env={"XDG_CACHE_HOME": str(cache), "NUMBA_CACHE_DIR": None})
     assert list((tmp_path / "__pycache__").glob("user_mod.twice-*.nbi"))
     assert not list(cache.rglob("user_mod*"))
+
+
+def test_the_cache_is_named_after_the_kernel_and_model_sources(tmp_path):
+    """The directory's tag hashes the kernels and the model modules they import (the
+    contact-arc constants in model/rates.py: numba would not see them change), and
+    $XDG_CACHE_HOME is honoured."""
+    from pathlib import Path
+
+    import fcsweep.kernels.cache as cache
+
+    kernels = sorted(Path(cache.__file__).parent.glob("*.py"))
+    assert Path(cache.__file__).parents[1] / "model" / "rates.py" in cache.model_sources(kernels)
+    out = _python("from fcsweep.kernels import cache_dir; print(cache_dir())",
+                  env={"XDG_CACHE_HOME": str(tmp_path), "NUMBA_CACHE_DIR": None})
+    got = Path(out.strip())
+    assert got.parent == tmp_path / "fcsweep" and got.name.startswith("numba-") and len(got.name) == 18
 
 
 def test_compile_stages_name_every_kernel_the_step_calls():

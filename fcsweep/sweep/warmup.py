@@ -193,7 +193,7 @@ def _run_serial(done: Callable[[str, float], None]) -> None:
     done("step", time.perf_counter() - t)
 
 
-def compile_kernels(log: Callable[[str], None] | None = None, *, tick: float = 15.0, parallel: bool = False,
+def compile_kernels(log: Callable[[str], None] | None = None, *, tick: float | None = None, parallel: bool = False,
                     progress: bool | None = None) -> float:
     """Compile or load the kernels the demo's step needs (every config uses the same).
 
@@ -203,8 +203,9 @@ def compile_kernels(log: Callable[[str], None] | None = None, *, tick: float = 1
         Receives a line when compilation starts (only when the cache is cold), a line per
         finished stage (or, on a terminal with ``progress``, a bar instead), and one
         when it is over.
-    tick : float
-        Seconds between elapsed-time lines while one stage runs (without a bar).
+    tick : float, optional
+        Seconds between elapsed-time lines while a stage runs (without a bar; default
+        none: a log gets a line per stage and no more).
     parallel : bool
         Compile the stages in two processes (where the caller may start processes; a
         daemonic process, such as a pool worker, compiles in itself).
@@ -237,7 +238,7 @@ def compile_kernels(log: Callable[[str], None] | None = None, *, tick: float = 1
         from tqdm.auto import tqdm
 
         bar = tqdm(total=round(est.total()), desc="compiling kernels", unit="s", file=sys.stderr,
-                   bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.0f}/{total:.0f} s {postfix}")
+                   bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.0f}/{total:.0f} s{postfix}")
 
     def done(name: str, seconds: float) -> None:
         finished.append(name)
@@ -259,7 +260,7 @@ def compile_kernels(log: Callable[[str], None] | None = None, *, tick: float = 1
             else:
                 log(f"compiling kernels ... {now - t0:.0f} s")
 
-    th = threading.Thread(target=ticker, daemon=True) if log else None
+    th = threading.Thread(target=ticker, daemon=True) if log and (bar is not None or tick) else None
     if th:
         th.start()
     try:
