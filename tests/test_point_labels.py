@@ -150,3 +150,44 @@ def test_the_config_analysis_section_reaches_the_analysis_settings():
     props = json_schema()["properties"]["analysis"]["properties"]
     assert props["label_confidence"]["exclusiveMinimum"] == 0.5
     assert props["percolation_threshold"]["exclusiveMaximum"] == 1
+
+
+def test_solid_kind_tells_a_crystal_from_a_glass():
+    """The both-starts numbers of eta = 0.08, v0 = 0.02 at N = 1024: |Psi6| 0.96, rho_d 0 from
+    the lattice (a crystal), 0.51, 0.061 from the disordered start (amorphous)."""
+    from fcsweep.analysis.phase import solid_kind
+
+    assert solid_kind(PHASE_SOLID, 0.960, 0.002, 0.0, 0.0) == (0, 1.0)
+    kind, p = solid_kind(PHASE_SOLID, 0.511, 0.02, 0.061, 0.004)
+    assert kind == 1 and p > 0.999
+    assert solid_kind(PHASE_SOLID, 0.70, 0.05, 0.0, 0.0)[0] == 2  # on the line: undetermined
+    assert solid_kind(PHASE_FLUID, 0.96, 0.002, 0.0, 0.0)[0] == -1  # only solids have a kind
+
+
+def test_a_crystal_and_a_glass_are_not_the_same_state():
+    """Both starts read solid; with |Psi6| and rho_d of a crystal from one and of a glass from
+    the other, the point is undetermined, phase_hysteresis disagree, reason solid_kinds_differ."""
+    from fcsweep.analysis.reasons import reason_value
+
+    ds = _two_start_dataset()
+    psi = np.full(ds["rho_d"].shape, np.nan)
+    psi[..., 0, :], psi[..., 1, :] = 0.5, 0.95  # disordered, lattice
+    ds["psi6"], ds["psi6_err"] = (ds["rho_d"].dims, psi), (ds["rho_d"].dims, np.full(psi.shape, 0.01))
+    rho = ds["rho_d"].values.copy()
+    rho[0, 0, 0, 1, :] = 0.0  # the lattice start of v0 = 0.01 has no defects
+    ds["rho_d"].values[:] = rho
+    ds["rho_d_err"].values[0, 0, 0, 1, :] = 0.0
+    add_point_labels(ds, 0.95, 0.5)
+    kinds = ds["solid_kind_start"].isel(eta=0, N=0, v0=0).values.tolist()  # (disordered, lattice)
+    assert kinds == [1, 0]
+    assert ds["phase_point"].isel(eta=0, N=0, v0=0).item() == PHASE_UNDETERMINED
+    assert np.isnan(ds["phase_point_confidence"].isel(eta=0, N=0, v0=0).item())
+    assert ds["phase_hysteresis"].isel(eta=0, N=0, v0=0).item() == HYSTERESIS_DISAGREE
+    assert ds["phase_point_reason_code"].isel(eta=0, N=0, v0=0).item() == reason_value("solid_kinds_differ")
+    # the same glass from both starts is one state: solid, amorphous
+    ds2 = _two_start_dataset()
+    ds2["psi6"], ds2["psi6_err"] = (ds2["rho_d"].dims, np.full(psi.shape, 0.5)), (ds2["rho_d"].dims,
+                                                                                  np.full(psi.shape, 0.01))
+    add_point_labels(ds2, 0.95, 0.5)
+    assert ds2["phase_point"].isel(eta=0, N=0, v0=0).item() == PHASE_SOLID
+    assert ds2["solid_kind_point"].isel(eta=0, N=0, v0=0).item() == 1

@@ -406,6 +406,32 @@ def _broken_label(ev: PhaseEvidence, min_confidence, d_solid, q_star) -> Label:
     return Label(int(best), conf, f"{cages}; {late}: P({phase_name(best)}) = {conf:.3f}", "decided_cages_broken")
 
 
+#: What kind of solid a solid label is (``solid_kind``; -1 where the label is not solid).
+SOLID_KIND_FLAGS = {-1: "not_solid", 0: "crystal", 1: "amorphous", 2: "undetermined"}
+#: A solid is a crystal when its global |Psi6| is above PSI6_CRYSTAL (one orientation over the
+#: box: a polycrystal's or a glass's grains average it down; the lattice solids of the
+#: both-starts campaign read 0.90-0.97, the disordered-start solids 0.09-0.51) and its
+#: Voronoi defect fraction below RHO_D_CRYSTAL (bound dislocation pairs only: 0-0.001 from
+#: the lattice, 0.06-0.11 from the disordered start at the same points); amorphous otherwise.
+PSI6_CRYSTAL, RHO_D_CRYSTAL = 0.7, 0.02
+
+
+def solid_kind(phase_code, psi6, psi6_err, rho_d, rho_d_err, *,
+               min_confidence: float = MIN_CONFIDENCE) -> tuple[int, float]:
+    """Crystal or amorphous, for a solid label (:data:`SOLID_KIND_FLAGS`, with the
+    probability of the kind given: P(crystal) = P(|Psi6| > PSI6_CRYSTAL) P(rho_d <
+    RHO_D_CRYSTAL) with Gaussian errors); (-1, NaN) where the label is not solid, (2, P) where
+    neither kind reaches ``min_confidence`` or an input is missing."""
+    if int(phase_code) != PHASE_SOLID:
+        return -1, float("nan")
+    values = np.array([psi6, psi6_err, rho_d, rho_d_err], dtype=float)
+    if not np.isfinite(values).all():
+        return 2, float("nan")
+    p_crystal = p_above(psi6, psi6_err, PSI6_CRYSTAL) * (1.0 - p_above(rho_d, rho_d_err, RHO_D_CRYSTAL))
+    kind, p = (0, p_crystal) if p_crystal >= 0.5 else (1, 1.0 - p_crystal)
+    return (kind if p >= min_confidence else 2), float(p)
+
+
 def classify_percolation(rho_d, rho_d_err, *, min_confidence: float = MIN_CONFIDENCE,
                          threshold: float = RHO_D_PERCOLATION, stationary: bool = True) -> Label:
     """Percolation label of one run or point with its confidence and the reason

@@ -109,6 +109,8 @@ REASONS = (
     _R(41, "replicates_agree", "the replicates give the same label for different reasons", _ALL),
     _R(42, "starts_disagree", "the two starts give different decided labels", _ALL, "starts disagree"),
     _R(43, "starts_agree", "both starts give the same label for different reasons", _ALL),
+    _R(44, "solid_kinds_differ", "both starts read solid, one a crystal and the other amorphous (|Psi6|, rho_d): the "
+                                 "same label is not the same state", ("phase",), "crystal vs amorphous"),
 )
 #: name -> :class:`Reason`.
 REASON_BY_NAME = {r.name: r for r in REASONS}

@@ -32,7 +32,7 @@ import numpy as np
 from fcsweep.analysis import cage, confined, diffusion, shapes, voronoi
 from fcsweep.analysis.frames import as_source
 from fcsweep.analysis.msd import frame_drift, log_lag_indices, msd_curve_streamed
-from fcsweep.analysis.phase import classify_percolation, phase_evidence, phase_label
+from fcsweep.analysis.phase import classify_percolation, phase_evidence, phase_label, solid_kind
 from fcsweep.analysis.reasons import reason_value
 from fcsweep.analysis.stats import time_average
 from fcsweep.model.confinement import confinement_of_params
@@ -420,6 +420,9 @@ def label_observables(sc: Mapping, est, settings: Mapping, Dr: float) -> dict:
     lab = phase_label(phase_evidence(sc, note), min_confidence=conf)
     out.update(phase=float(lab.code), phase_confidence=lab.confidence, phase_reason=lab.reason,
                phase_reason_code=float(reason_value(lab.reason_code)))
+    kind, kind_p = solid_kind(lab.code, sc.get("psi6", np.nan), sc.get("psi6_err", np.nan), sc["rho_d"],
+                              sc["rho_d_err"], min_confidence=conf)
+    out.update(solid_kind=float(kind), solid_kind_confidence=kind_p)
     lab = classify_percolation(sc["rho_d"], sc["rho_d_err"], min_confidence=conf,
                                threshold=float(settings["percolation_threshold"]),
                                stationary=not sc.get("equilibration_at_limit", 0.0) >= 0.5)

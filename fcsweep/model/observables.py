@@ -118,6 +118,9 @@ OBSERVABLES: dict[str, Observable] = {o.name: o for o in (
                                         "window; else 0"),
     _O("phase_confidence", "run", "probability of the most probable phase given the errors"),
     _O("percolated_confidence", "run", "probability of the most probable percolation label"),
+    _O("solid_kind", "run", "kind of a solid: 0 crystal (|Psi6| > 0.7 and rho_d < 0.02), 1 amorphous, 2 undetermined, "
+                            "-1 not a solid"),
+    _O("solid_kind_confidence", "run", "probability of solid_kind given the errors of psi6 and rho_d"),
     _O("D_eff_g_cells", "run", "spatial statistical inefficiency of the squared displacements: N / g cells move "
                                "independently"),
     _O("neighbour_spacing", "run", "neighbour spacing a of a triangular lattice at the cells' density (units of R0)"),
@@ -211,6 +214,10 @@ OBSERVABLES: dict[str, Observable] = {o.name: o for o in (
     _O("phase_start", "dataset", "phase label of each start (dimension initial): the phase rule on its replicate "
                                  "means"),
     _O("phase_start_confidence", "dataset", "probability of phase_start"),
+    _O("solid_kind_start", "dataset", "kind of a solid phase_start (dimension initial; replicate means of psi6 and "
+                                      "rho_d): 0 crystal, 1 amorphous, 2 undetermined, -1 not a solid"),
+    _O("solid_kind_point", "dataset", "kind of a solid phase_point common to the starts: 0 crystal, 1 amorphous, 2 "
+                                      "undetermined (the starts' kinds differ or one is undetermined), -1 not a solid"),
     _O("percolated_start", "dataset", "percolation label of each start (dimension initial)"),
     _O("percolated_start_confidence", "dataset", "probability of percolated_start"),
     _O("kthny_start", "dataset", "KTHNY label common to the replicates of each start (dimension initial)"),

@@ -16,8 +16,9 @@ import xarray as xr
 from fcsweep.analysis.fss import FSS_BOOTSTRAP, fss_collapse, not_periodic_reason
 from fcsweep.analysis.percolation import fisher_observables
 from fcsweep.analysis.phase import (KTHNY_FLAGS, KTHNY_UNDETERMINED, MIN_CONFIDENCE, PERCOLATION_FLAGS, PHASE_FLAGS,
-                                    RHO_D_PERCOLATION, flag_attrs)
-from fcsweep.analysis.points import COMBINED, DECIDED, HYSTERESIS_FLAGS, LEAST, MOST, agree, common_reason, point_labels
+                                    PHASE_SOLID, RHO_D_PERCOLATION, SOLID_KIND_FLAGS, flag_attrs, solid_kind)
+from fcsweep.analysis.points import (COMBINED, DECIDED, HYSTERESIS_DISAGREE, HYSTERESIS_FLAGS, LEAST, MOST, agree,
+                                     combine_runs, common_reason, point_labels)
 from fcsweep.analysis.reasons import reason_flags, reason_value
 from fcsweep.analysis.stats import combine
 from fcsweep.io.schema import DONE, STATUSES
@@ -92,9 +93,14 @@ def add_point_labels(ds: xr.Dataset, conf: float, threshold: float) -> None:
     out = {k: np.full(shape, -1, dtype=np.int8) for k in ("phase", "percolated")}
     cf = {k: np.full(shape, np.nan) for k in ("phase", "percolated")}
     why = {k: np.full(shape, -1, dtype=np.int8) for k in ("phase", "percolated")}
+    kind = np.full(shape, -1, dtype=np.int8)
     for idx in np.ndindex(shape):
         runs = [{v: float(vals[v][idx + (r,)]) for v in names} for r in np.flatnonzero(st[idx] == ANALYSED)]
         ph, pc = point_labels(runs, min_confidence=conf, percolation_threshold=threshold)
+        if runs:
+            ev = combine_runs(runs)
+            kind[idx] = solid_kind(ph.code, ev["psi6"], ev["psi6_err"], ev["rho_d"], ev["rho_d_err"],
+                                   min_confidence=conf)[0]
         out["phase"][idx], cf["phase"][idx] = ph.code, ph.confidence
         out["percolated"][idx], cf["percolated"][idx] = pc.code, pc.confidence
         why["phase"][idx], why["percolated"][idx] = reason_value(ph.reason_code), reason_value(pc.reason_code)
@@ -118,10 +124,23 @@ def add_point_labels(ds: xr.Dataset, conf: float, threshold: float) -> None:
         ds[f"{k}_start_confidence"] = (dims, cf[k], attrs_of(f"{k}_start_confidence"))
         decided, undetermined = DECIDED[k]
         code, conf_k, hyst = agree(np.moveaxis(out[k], axis, -1), np.moveaxis(cf[k], axis, -1), decided, undetermined)
+        if k == "phase":  # the same label is not the same state: a crystal against a glass
+            kinds = np.moveaxis(kind, axis, -1)
+            differ = (code == PHASE_SOLID) & np.all(np.isin(kinds, (0, 1)), axis=-1) & \
+                (kinds.max(axis=-1) != kinds.min(axis=-1))
+            code = np.where(differ, undetermined, code).astype(np.int8)
+            conf_k = np.where(differ, np.nan, conf_k)
+            hyst = np.where(differ, HYSTERESIS_DISAGREE, hyst).astype(np.int8)
+            common = np.where(np.all(kinds == kinds[..., :1], axis=-1), kinds[..., 0], 2)
+            ds["solid_kind_start"] = (dims, kind, {**attrs_of("solid_kind_start"), **flag_attrs(SOLID_KIND_FLAGS)})
+            ds["solid_kind_point"] = (pdims, np.where(code == PHASE_SOLID, common, -1).astype(np.int8),
+                                      {**attrs_of("solid_kind_point"), **flag_attrs(SOLID_KIND_FLAGS)})
         ds[f"{k}_point"] = (pdims, code, {**attrs_of(f"{k}_point"), **flag_attrs(flags[k])})
         ds[f"{k}_point_confidence"] = (pdims, conf_k, attrs_of(f"{k}_point_confidence"))
         rc_k = common_reason(code, np.moveaxis(out[k], axis, -1), np.moveaxis(why[k], axis, -1), decided,
                              disagree="starts_disagree", agree_="starts_agree")
+        if k == "phase":
+            rc_k = np.where(differ, reason_value("solid_kinds_differ"), rc_k).astype(np.int8)
         ds[f"{k}_start_reason_code"] = (dims, why[k], {**attrs_of(f"{k}_start_reason_code"),
                                                        **flag_attrs(reason_flags(k))})
         ds[f"{k}_point_reason_code"] = (pdims, rc_k, {**attrs_of(f"{k}_point_reason_code"),
