@@ -46,17 +46,18 @@ def main():
     n = ap.parse_args().n
     rng = np.random.default_rng(47)
     for R in (5, 10, 20):
-        line(f"disc R = {R} px", single(lambda g: ellipse_frame(R, R, 0.0, g), n, rng))
+        line(f"disc R = {R} px", single(lambda g, R=R: ellipse_frame(R, R, 0.0, g), n, rng))
     for R in (10, 15, 20):
         line(f"regular hexagon R = {R} px", single(
-            lambda g: polygon_frame(regular_polygon(6, R, g.uniform(0, np.pi)), g), n, rng))
+            lambda g, R=R: polygon_frame(regular_polygon(6, R, g.uniform(0, np.pi)), g), n, rng))
     for side in (19, 40):
         line(f"square side {side} px", single(
-            lambda g: polygon_frame(regular_polygon(4, side / np.sqrt(2), g.uniform(0, np.pi)), g), n, rng))
+            lambda g, side=side: polygon_frame(regular_polygon(4, side / np.sqrt(2), g.uniform(0, np.pi)), g), n,
+            rng))
     for asp in (1, 2, 4, 7):
         for b in (5, 10):
             line(f"ellipse aspect {asp}, b = {b} px", single(
-                lambda g: ellipse_frame(asp * b, b, g.uniform(0, np.pi), g), n, rng))
+                lambda g, asp=asp, b=b: ellipse_frame(asp * b, b, g.uniform(0, np.pi), g), n, rng))
     for cell, size in ((20, 400), (40, 640)):
         frame, qx = voronoi_monolayer(size, cell, rng)
         c = measure_cells(frame)

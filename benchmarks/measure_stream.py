@@ -57,8 +57,8 @@ def main() -> None:
     reader = dataset.iter_frames
     t0, c0 = time.time(), time.process_time()
 
-    def logged(labels):
-        for k, item in enumerate(reader(labels)):
+    def logged(labels, **options):
+        for k, item in enumerate(reader(labels, **options)):
             if k % 8 == 0:
                 print(f"frame {k:5d}  rss {rss_mb():7.0f} MB  cpu {time.process_time() - c0:8.1f} s", flush=True)
             yield item

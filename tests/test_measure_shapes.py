@@ -51,7 +51,7 @@ def test_ellipses(aspect, b):
 def test_discs_take_the_fit():
     """Discs of radius 5 and 20 px: the fit (the polygon of a smooth curve reads high), within 1 %."""
     for R in (5, 20):
-        e = _errors(lambda g: ellipse_frame(R, R, 0.0, g), 4, R)
+        e = _errors(lambda g, R=R: ellipse_frame(R, R, 0.0, g), 4, R)
         assert np.all(e[:, 2] == 1) and abs(e[:, 0].mean()) < 0.01
 
 

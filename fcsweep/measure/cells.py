@@ -11,13 +11,15 @@ bias (:mod:`fcsweep.measure.perimeter`): the least-squares fit of
 ``R(phi) = c_0 + sum_{n=1..M} (A_n cos n phi + B_n sin n phi)`` about the centroid to the
 contour's vertices, weighted by the contour length each vertex stands for
 (``perimeter_fit``, ``q_fit = P_fit / sqrt(A_fit)``), exact for smooth star-shaped cells;
-and a corner-preserving polygon of the blurred outline, exact for polygons and close for
-elongated cells.  ``perimeter`` and ``q = P / sqrt(A)`` (``A`` the mask area) are the
-polygon's when the cell has corners (the blurred outline's peak curvature reaches
-:data:`CORNER_CURVATURE` and the cell's equivalent radius :data:`CORNER_MIN_RADIUS_PX`) or is
-not star-shaped, else the fit's; the blurred outline's length with its curvature correction
-when neither applies (``q_estimator`` 1 fit, 2 polygon, 3 blurred).  ``q_err`` is the resolution error of ``q``: the per-cell rms
-error of the estimator on the validation shapes at the cell's size (:data:`Q_ERR_COEF`
+and the polygon of the cell's maximal digital straight runs, exact for polygons and close
+for elongated cells.  ``perimeter`` and ``q = P / sqrt(A)`` (``A`` the mask area) are those
+of the one whose outline reproduces the mask better: mismatched pixel centres plus
+:data:`PARAMETER_COST` per parameter (2 M + 1 for the fit, 2 per polygon vertex), ties to the
+fit; the fit for star-shaped cells of equivalent radius below :data:`POLYGON_MIN_RADIUS_PX`
+pixels, the polygon for cells that are not star-shaped, the blurred outline's length with
+its curvature correction when neither exists (``q_estimator`` 1 fit, 2 polygon, 3
+blurred).  ``q_err`` is the resolution error of ``q``: the per-cell rms error of its
+estimator on the validation shapes at the cell's size (``q`` times :data:`Q_ERR_COEF`
 divided by the equivalent radius in pixels).  Bias and errors: docs/measure.md.
 
 Cells that cannot be measured keep their centroid and area but no shape (NaN) and a
@@ -42,7 +44,8 @@ from scipy import ndimage
 from fcsweep.measure.perimeter import blurred_line, blurred_perimeter, edge_band, mismatch, polygon_perimeter
 
 __all__ = ["measure_cells", "CELL_FIELDS", "fit_radius", "STAR_TOLERANCE", "FIT_POINTS", "SHAPE_FLAGS",
-           "ESTIMATORS", "MIN_AREA_PX", "MIN_INSCRIBED_RADIUS_PX", "Q_ERR_COEF", "PARAMETER_COST", "POLYGON_MIN_RADIUS_PX"]
+           "ESTIMATORS", "MIN_AREA_PX", "MIN_INSCRIBED_RADIUS_PX", "Q_ERR_COEF", "PARAMETER_COST",
+           "POLYGON_MIN_RADIUS_PX"]
 
 #: Per-cell outputs of :func:`measure_cells` (besides the mode arrays ``a``, ``b``, ``c_abs``).
 CELL_FIELDS = ("label", "x", "y", "area", "perimeter_contour", "perimeter_fit", "q_fit", "perimeter", "q", "q_err",

@@ -32,7 +32,8 @@ from fcsweep.model.shape import Q_STAR
 __all__ = ["frame_statistics", "FRAME_FIELDS", "PERCOLATION_THRESHOLD"]
 
 #: Per-frame outputs of :func:`frame_statistics`.
-FRAME_FIELDS = ("n_cells", "n_edge_cut", "n_split", "n_sliver", "n_unresolved", "n_boundary", "n_classified", "q_mean", "q_mean_err", "q_frac_above",
+FRAME_FIELDS = ("n_cells", "n_edge_cut", "n_split", "n_sliver", "n_unresolved",
+                "n_boundary", "n_classified", "q_mean", "q_mean_err", "q_frac_above",
                 "rho_d", "n_defects", "n_clusters", "largest_cluster_fraction", "percolated", "spanning", "psi6")
 
 

@@ -32,7 +32,8 @@ from scipy import ndimage
 
 from fcsweep.measure.runs import ORIENTATIONS, count_outside, digital_runs
 
-__all__ = ["blurred_line", "polygon_perimeter", "blurred_perimeter", "closed_length", "mismatch", "edge_band", "BLUR", "STEP",
+__all__ = ["blurred_line", "polygon_perimeter", "blurred_perimeter", "closed_length", "mismatch", "edge_band", "BLUR",
+           "STEP",
            "MIN_RUN", "MIN_CORNER_SINE", "MAX_CORNER_SHIFT",
            "CORNER_TOLERANCE"]
 
