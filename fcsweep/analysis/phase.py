@@ -226,6 +226,10 @@ class PhaseEvidence:
     stationary : bool
         False where the equilibration cut reached its limit (``equilibration_at_limit``):
         nothing is decided on that window (:data:`NOT_STATIONARY`).
+    bias : tuple of float
+        The measured systematic offsets of the run's contour rule and step
+        (``q_bias_low``, ``q_bias_high``, ``d_bias_low``, ``d_bias_high``,
+        :func:`fcsweep.model.systematics.rule_bias`; zeros where not stored).
     """
 
     D_solid: float
@@ -241,6 +245,7 @@ class PhaseEvidence:
     trust_code: str = "not_diffusive"
     D_solid_name: str = "D_eff"
     stationary: bool = True
+    bias: tuple = (0.0, 0.0, 0.0, 0.0)
 
 
 def solid_test_name(sc: dict) -> str:
@@ -321,12 +326,64 @@ def phase_evidence(sc: dict, note: str | None = None) -> PhaseEvidence:
     return PhaseEvidence(D, De, trusted, why, p, cage_note, float(sc.get("D_eff_cr_late", np.nan)),
                          float(sc.get("D_eff_cr_late_err", np.nan)), float(sc.get("q_mean", np.nan)),
                          float(sc.get("q_mean_err", np.nan)), code, solid_test_name(sc),
-                         not _flag(sc, "equilibration_at_limit"))
+                         not _flag(sc, "equilibration_at_limit"),
+                         tuple(float(np.nan_to_num(sc.get(k, 0.0), nan=0.0, posinf=np.inf, neginf=-np.inf))
+                               for k in BIAS_KEYS))
+
+
+#: The scalars of the measured systematic offsets (:func:`fcsweep.model.systematics.rule_bias`).
+BIAS_KEYS = ("q_bias_low", "q_bias_high", "d_bias_low", "d_bias_high")
 
 
 def phase_label(ev: PhaseEvidence, *, min_confidence: float = MIN_CONFIDENCE, d_solid: float = D_EFF_SOLID,
                 q_star: float = Q_STAR) -> Label:
     """The phase rule, for a run (its scalars) and a grid point (its replicate-combined ones).
+
+    A decided label whose deciding estimate, corrected by any offset in the measured range of
+    the run's contour rule and step (``ev.bias``), would lie on the other side of its
+    threshold is undetermined, reason code ``rule_sensitive`` (:func:`rule_sensitivity`);
+    the rest is :func:`phase_rule`.
+
+    Returns
+    -------
+    Label
+    """
+    lab = phase_rule(ev, min_confidence=min_confidence, d_solid=d_solid, q_star=q_star)
+    why = rule_sensitivity(lab, ev, d_solid=d_solid, q_star=q_star)
+    return Label(PHASE_UNDETERMINED, float("nan"), why, "rule_sensitive") if why else lab
+
+
+def rule_sensitivity(lab: Label, ev: PhaseEvidence, *, d_solid: float = D_EFF_SOLID, q_star: float = Q_STAR) -> str:
+    """Why a decided phase label depends on the contour rule's or the step's systematic
+    offset ("" if it does not): the deciding D (``D_eff_cr_late`` where the cages broke,
+    else the solid test's) or ``<q>`` (fluid against soft fluid), corrected by the offsets'
+    range (D measured = D (1 + d), <q> measured = <q> + q), straddles its threshold."""
+    if lab.code not in (PHASE_SOLID, PHASE_FLUID, PHASE_SOFT_FLUID) or not any(ev.bias):
+        return ""
+    ql, qh, dl, dh = ev.bias
+    if not np.isfinite(ev.bias).all():  # +-inf: not measured
+        return ("the systematic offset of <q> and D at this dt was not measured (above 0.02): the label could "
+                "depend on it; rerun at dt <= 0.02")
+    broken = lab.reason_code == "decided_cages_broken"
+    D, name = (ev.D_late, "D_eff_cr_late") if broken else (ev.D_solid, ev.D_solid_name)
+    if np.isfinite(D) and dl > -1.0 and dh > -1.0:
+        lo, hi = D / (1.0 + dh), D / (1.0 + dl)
+        if lo < d_solid < hi:
+            return (f"{name} = {D:.3g}, corrected by the measured offset of D for this contour rule and dt "
+                    f"({dl:+.0%} .. {dh:+.0%}), lies between {lo:.3g} and {hi:.3g}, on both sides of {d_solid:g}")
+    if lab.code != PHASE_SOLID and np.isfinite(ev.q):
+        lo, hi = ev.q - qh, ev.q - ql
+        if lo < q_star < hi:
+            return (f"<q> = {ev.q:.4f}, corrected by the measured offset of <q> for this contour rule and dt "
+                    f"({ql:+.3f} .. {qh:+.3f}), lies between {lo:.4f} and {hi:.4f}, on both sides of {q_star:g}; "
+                    "the arc rule decides")
+    return ""
+
+
+def phase_rule(ev: PhaseEvidence, *, min_confidence: float = MIN_CONFIDENCE, d_solid: float = D_EFF_SOLID,
+               q_star: float = Q_STAR) -> Label:
+    """The phase rule on the evidence as measured (:func:`phase_label` adds the systematic
+    offsets).
 
     With broken cages (``p_broken >= min_confidence``) ``D_late`` (D_eff_cr_late, the
     paper's D_eff measured in its diffusive regime) decides solid against not solid with

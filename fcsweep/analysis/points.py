@@ -62,6 +62,11 @@ def combine_runs(runs) -> dict:
     for v in MOST:
         vals = [float(r.get(v, np.nan)) for r in runs]
         out[v] = float(np.max(np.nan_to_num(vals, nan=0.0))) if vals else float("nan")
+    for lo, hi in (("q_bias_low", "q_bias_high"), ("d_bias_low", "d_bias_high")):  # the widest range
+        def value(r, k):  # NaN (not recorded) reads as no offset; +-inf (not measured) stays
+            return float(np.nan_to_num(float(r.get(k, 0.0)), nan=0.0, posinf=np.inf, neginf=-np.inf))
+
+        out[lo], out[hi] = min(value(r, lo) for r in runs), max(value(r, hi) for r in runs)
     lags = [float(r.get("cage_lag", np.nan)) for r in runs]
     out["cage_lag"] = float(np.nanmean(lags)) if np.any(np.isfinite(lags)) else float("nan")
     return out

@@ -87,6 +87,9 @@ REASONS = (
     _R(18, "not_stationary", "the equilibration cut reached its limit (half the frames after the transient): <q> "
                              "or rho_d still drifts there, so no label is decided on the window",
        ("phase", "percolated"), "not stationary"),
+    _R(19, "rule_sensitive", "the label depends on the contour rule's or the step's measured systematic offset of "
+                             "<q> or D (fcsweep.model.systematics): corrected by it, the deciding estimate "
+                             "lies on both sides of its threshold", ("phase",), "rule-sensitive"),
     _R(20, "near_rho_threshold", "rho_d too close to the percolation threshold", ("percolated",),
        "rho_d near 1/2"),
     _R(21, "decided_rho_d", "rho_d with its error decides", ("percolated",)),

@@ -36,6 +36,7 @@ from fcsweep.analysis.phase import classify_percolation, phase_evidence, phase_l
 from fcsweep.analysis.reasons import reason_value
 from fcsweep.analysis.stats import time_average
 from fcsweep.model.confinement import confinement_of_params
+from fcsweep.model.systematics import CONVERGED_DT, rule_bias
 from fcsweep.analysis.run_order import (KTHNY_SCALARS, OrderFrames, evenly, frame_mean, kthny_observables,
                                         not_periodic_kthny, order_observables)
 
@@ -197,6 +198,9 @@ def compute_observables(run: RunFrames, settings: Mapping, *, curves: bool = Tru
     sc.update(s4)
     cv.update(c4)
     sc.update(wall_observables(run, conf, eq))
+    p = run.params
+    sc.update(rule_bias(str(p.get("quadrature", "binary")), int(p.get("contour_points", 40)),
+                        float(p.get("dt", CONVERGED_DT)), int(p.get("modes", 6))))
     sc.update(label_observables(sc, est, settings, float(run.params.get("Dr", np.nan))))
     extra = {"n_sides_counts": ds["n_sides_counts"], "frames": plan.frames,
              "structure_frames": plan.structure_frames, "shape_frames": plan.shape_frames}

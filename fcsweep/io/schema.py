@@ -15,8 +15,8 @@ ANALYSIS_SETTINGS_ATTR = "settings_json"
 LABEL_RULES_ATTR = "label_rules"
 #: Revision of the label rules: raised whenever a rule change can alter the labels of data
 #: already analysed, so that such analyses read as stale and ``fcsweep analyze`` redoes them
-#: (2: the KTHNY bound of a curve in its noise drawn from its shell peak, 2026-11-25).
-LABEL_RULES = 2
+#: (the revisions are listed in CHANGELOG.md).
+LABEL_RULES = 3
 #: Written by a failed analysis (``fcsweep.results.analyze.ANALYSIS_ERROR_FILE``).
 ANALYSIS_ERROR = "analysis_error.txt"
 #: File names inside ``<output>/``: the aggregated dataset and the points ``fcsweep refine`` added.

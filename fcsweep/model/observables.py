@@ -118,6 +118,11 @@ OBSERVABLES: dict[str, Observable] = {o.name: o for o in (
                                         "window; else 0"),
     _O("phase_confidence", "run", "probability of the most probable phase given the errors"),
     _O("percolated_confidence", "run", "probability of the most probable percolation label"),
+    _O("q_bias_low", "run", "smallest measured systematic offset of <q> for the run's contour rule and dt "
+                            "(fcsweep.model.systematics; NaN: not measured)"),
+    _O("q_bias_high", "run", "largest measured systematic offset of <q> for the run's contour rule and dt"),
+    _O("d_bias_low", "run", "smallest measured relative systematic offset of D for the run's contour rule and dt"),
+    _O("d_bias_high", "run", "largest measured relative systematic offset of D for the run's contour rule and dt"),
     _O("solid_kind", "run", "kind of a solid: 0 crystal (|Psi6| > 0.7 and rho_d < 0.02), 1 amorphous, 2 undetermined, "
                             "-1 not a solid"),
     _O("solid_kind_confidence", "run", "probability of solid_kind given the errors of psi6 and rho_d"),

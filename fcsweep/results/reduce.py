@@ -16,7 +16,7 @@ import xarray as xr
 from fcsweep.analysis.fss import FSS_BOOTSTRAP, fss_collapse, not_periodic_reason
 from fcsweep.analysis.percolation import fisher_observables
 from fcsweep.analysis.phase import (KTHNY_FLAGS, KTHNY_UNDETERMINED, MIN_CONFIDENCE, PERCOLATION_FLAGS, PHASE_FLAGS,
-                                    PHASE_SOLID, RHO_D_PERCOLATION, SOLID_KIND_FLAGS, flag_attrs, solid_kind)
+                                    BIAS_KEYS, PHASE_SOLID, RHO_D_PERCOLATION, SOLID_KIND_FLAGS, flag_attrs, solid_kind)
 from fcsweep.analysis.points import (COMBINED, DECIDED, HYSTERESIS_DISAGREE, HYSTERESIS_FLAGS, LEAST, MOST, agree,
                                      combine_runs, common_reason, point_labels)
 from fcsweep.analysis.reasons import reason_flags, reason_value
@@ -32,7 +32,7 @@ META = {**{name: (p.long_name, p.units) for name, p in PARAMETERS.items()},
 #: Observables reduced over replicates (``<name>_rmean``, ``_rmean_err``, ``_rchi2``).
 REPLICATE_VARS = REPLICATE_REDUCED
 #: Per-run numbers the point labels read (:func:`fcsweep.analysis.points.combine_runs`).
-POINT_INPUTS = COMBINED + tuple(f"{v}_err" for v in COMBINED) + LEAST + MOST + ("cage_lag",)
+POINT_INPUTS = COMBINED + tuple(f"{v}_err" for v in COMBINED) + LEAST + MOST + ("cage_lag",) + BIAS_KEYS
 #: The flags of each label of the observable table (:data:`fcsweep.model.observables.LABELS`).
 LABEL_FLAGS = {"phase": PHASE_FLAGS, "percolated": PERCOLATION_FLAGS, "kthny": KTHNY_FLAGS}
 
