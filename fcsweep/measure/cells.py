@@ -142,11 +142,15 @@ def _empty(n: int, modes: int) -> dict:
     return out
 
 
+_DISC = np.hypot(*np.mgrid[-2:3, -2:3]) <= MIN_INSCRIBED_RADIUS_PX
+
+
 def _unmeasurable(mask: np.ndarray) -> int:
-    """0, or the :data:`SHAPE_FLAGS` code of a split label or a sliver."""
+    """0, or the :data:`SHAPE_FLAGS` code of a split label or a sliver (no disc of radius
+    :data:`MIN_INSCRIBED_RADIUS_PX` fits: the mask's erosion by it is empty)."""
     if ndimage.label(mask, structure=np.ones((3, 3), dtype=bool))[1] > 1:
         return 2
-    if mask.sum() < MIN_AREA_PX or ndimage.distance_transform_edt(np.pad(mask, 1)).max() < MIN_INSCRIBED_RADIUS_PX:
+    if mask.sum() < MIN_AREA_PX or not ndimage.binary_erosion(np.pad(mask, 3), _DISC).any():
         return 3
     return 0
 

@@ -56,6 +56,10 @@ def _covers(a, b, c, pts) -> bool:
     """Whether the triangle a, b, c (a -> b and b -> c along the two lines, a, c on the outline)
     holds any of the points ``pts`` farther than :data:`CORNER_TOLERANCE` px inside its sides a-b
     and b-c: a sharpened corner that takes in pixel centres outside the cell is a rounded one."""
+    reach = max(np.hypot(*(b - a)), np.hypot(*(b - c))) + 1.0
+    pts = pts[np.abs(pts - b).max(axis=1) <= reach]
+    if not len(pts):
+        return False
     def side(p0, p1):
         e = p1 - p0
         return (e[0] * (pts[:, 1] - p0[1]) - e[1] * (pts[:, 0] - p0[0])) / max(np.hypot(e[0], e[1]), 1e-12)
@@ -113,10 +117,12 @@ def _edge_pixels(mask: np.ndarray, p: np.ndarray):
     4-neighbour in it, each with the index of its nearest point of ``p``."""
     from scipy.spatial import cKDTree
 
-    padded = np.pad(mask, 1)
+    m = np.pad(mask, 2)
+    core = m[1:-1, 1:-1]
+    up, down, left, right = m[:-2, 1:-1], m[2:, 1:-1], m[1:-1, :-2], m[1:-1, 2:]
     tree = cKDTree(p)
     out = []
-    for sel in (padded & ~ndimage.binary_erosion(padded), ndimage.binary_dilation(padded) & ~padded):
+    for sel in (core & ~(up & down & left & right), ~core & (up | down | left | right)):
         pts = np.argwhere(sel)[:, ::-1].astype(float) - 1.0
         out.append((pts, tree.query(pts)[1]))
     return out
@@ -198,8 +204,8 @@ def polygon_perimeter(line: np.ndarray, mask: np.ndarray, scale=(1.0, 1.0)):
 
 def edge_band(mask: np.ndarray):
     """(rows, cols) of the pixels within 2 px (a 5 x 5 square) of the mask's edge."""
-    square = np.ones((5, 5), dtype=bool)
-    return np.nonzero(ndimage.binary_dilation(mask, square) & ~ndimage.binary_erosion(mask, square, border_value=0))
+    share = ndimage.uniform_filter(mask.astype(np.float32), 5, mode="constant")
+    return np.nonzero((share > 0.01) & (share < 0.99))
 
 
 def mismatch(mask: np.ndarray, outline: np.ndarray, band=None) -> int:

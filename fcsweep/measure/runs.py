@@ -6,14 +6,14 @@ A run is digitally straight while some line separates its boundary pixel centres
 cell from those outside it; the test runs over :data:`ORIENTATIONS` directions (the extremes
 of the projections are kept as the run grows, so a run costs its pixels times the
 directions), and the chosen line is the one of widest margin, refined about the best
-direction to a twentieth of the grid's step.
+direction to a tenth of the grid's step.  Compiled with numba (cached next to this module,
+or in numba's user-wide cache where that is not writable).
 """
 
 from __future__ import annotations
 
+import numba
 import numpy as np
-
-from fcsweep.kernels.options import njit
 
 __all__ = ["digital_runs", "count_outside", "ORIENTATIONS"]
 
@@ -22,7 +22,35 @@ ORIENTATIONS = 180
 _BIG = 1e300
 
 
-@njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy")
+def _gap_at(pts, side, at, k0, t, n, length, nx, ny, gap, sign, offset, a):
+    """Margin, outward sign and offset of the separating line with normal (nx, ny) for the pixels
+    from index k0 on whose relative sample is <= length from sample t, stored at index a."""
+    N = pts.shape[0]
+    hi_in = -_BIG
+    lo_in = _BIG
+    hi_out = -_BIG
+    lo_out = _BIG
+    for j in range(N):
+        k = (k0 + j) % N
+        if (at[k] - t) % n > length:
+            break
+        v = pts[k, 0] * nx + pts[k, 1] * ny
+        if side[k]:
+            hi_in = max(hi_in, v)
+            lo_in = min(lo_in, v)
+        else:
+            hi_out = max(hi_out, v)
+            lo_out = min(lo_out, v)
+    g1 = lo_out - hi_in
+    g2 = lo_in - hi_out
+    if g1 >= g2:
+        gap[a], sign[a], offset[a] = g1, 1.0, 0.5 * (lo_out + hi_in)
+    else:
+        gap[a], sign[a], offset[a] = g2, -1.0, -0.5 * (lo_in + hi_out)
+
+
+@numba.njit(cache=True, error_model="numpy")
 def _gaps(pts, side, at, k0, t, n, length, nx, ny, gap, sign, offset):
     """Margin, outward sign and offset of the separating line at each direction (nx, ny) for the
     pixels from index k0 on whose relative sample is <= length from sample t; gap <= 0 where none
@@ -53,7 +81,7 @@ def _gaps(pts, side, at, k0, t, n, length, nx, ny, gap, sign, offset):
             gap[a], sign[a], offset[a] = g2, -1.0, -0.5 * (lo_in + hi_out)
 
 
-@njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy")
 def digital_runs(pts, side, at, n, start, first, orientations):
     """Maximal digitally straight runs of a closed outline of ``n`` samples.
 
@@ -106,6 +134,8 @@ def digital_runs(pts, side, at, n, start, first, orientations):
     r = 0
     t = start
     end = start + n
+    live = np.empty(orientations, np.int64)
+    kept = np.empty(orientations, np.int64)
     while t < end - 1:
         room = end - 1 - t
         k0 = np.searchsorted(at, t % n)
@@ -114,14 +144,23 @@ def digital_runs(pts, side, at, n, start, first, orientations):
             lo_in[a] = _BIG
             hi_out[a] = -_BIG
             lo_out[a] = _BIG
+            live[a] = a
+            kept[a] = a
+        nlive = orientations
+        nkept = orientations
         fail = -1
         for j in range(N):
             k = (k0 + j) % N
             rel = (at[k] - t) % n
             if rel > room:
                 break
-            anyok = False
-            for a in range(orientations):
+            # a direction that no longer separates the run never will again: only the live ones are updated
+            for q in range(nlive):
+                kept[q] = live[q]
+            nkept = nlive
+            m = 0
+            for q in range(nlive):
+                a = live[q]
                 v = pts[k, 0] * nx[a] + pts[k, 1] * ny[a]
                 if side[k]:
                     hi_in[a] = max(hi_in[a], v)
@@ -129,13 +168,19 @@ def digital_runs(pts, side, at, n, start, first, orientations):
                 else:
                     hi_out[a] = max(hi_out[a], v)
                     lo_out[a] = min(lo_out[a], v)
-                if not anyok and (lo_out[a] - hi_in[a] > 0 or lo_in[a] - hi_out[a] > 0):
-                    anyok = True
-            if not anyok:
+                if lo_out[a] - hi_in[a] > 0 or lo_in[a] - hi_out[a] > 0:
+                    live[m] = a
+                    m += 1
+            nlive = m
+            if nlive == 0:
                 fail = rel
                 break
         length = room if fail < 0 else min(room, max(fail - 1, first))
-        _gaps(pts, side, at, k0, t, n, length, nx, ny, gap, sign, offset)
+        for a in range(orientations):
+            gap[a] = -_BIG
+        for q in range(nkept if fail >= 0 else nlive):
+            a = kept[q] if fail >= 0 else live[q]
+            _gap_at(pts, side, at, k0, t, n, length, nx[a], ny[a], gap, sign, offset, a)
         best = np.argmax(gap)
         ok = gap[best] > 0 and gap[best] < 1e200
         if ok:  # refine about the best direction
@@ -157,7 +202,7 @@ def digital_runs(pts, side, at, n, start, first, orientations):
     return out_t[:r], out_len[:r], out_ok[:r], out_nrm[:r], out_off[:r]
 
 
-@njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy")
 def count_outside(px, py, inside, poly):
     """Pixels (px, py) whose side of the closed polygon ``poly`` (V, 2), by the even-odd rule,
     differs from ``inside``."""
