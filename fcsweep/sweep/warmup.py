@@ -164,19 +164,23 @@ def _run_parallel(done: Callable[[str, float], None]) -> None:
     process fails is compiled here instead."""
     ctx = multiprocessing.get_context("spawn")
     t0 = time.perf_counter()
-    procs = {name: ctx.Process(target=_compile_stage, args=(name,), name=f"fcsweep-compile-{name}")
-             for name in ("rates", "others")}
+    procs = {name: ctx.Process(target=_compile_stage, args=(name,), name=f"fcsweep-compile-{name}", daemon=True)
+             for name in ("rates", "others")}  # daemons: an interrupted compile does not wait for them
     for p in procs.values():
         p.start()
     left = dict(procs)
-    while left:
-        for name, p in list(left.items()):
-            p.join(timeout=0.2)
-            if p.exitcode is not None:
-                del left[name]
-                if p.exitcode != 0:
-                    _compile_stage(name)
-                done(name, time.perf_counter() - t0)
+    try:
+        while left:
+            for name, p in list(left.items()):
+                p.join(timeout=0.2)
+                if p.exitcode is not None:
+                    del left[name]
+                    if p.exitcode != 0:
+                        _compile_stage(name)
+                    done(name, time.perf_counter() - t0)
+    finally:
+        for p in left.values():  # interrupted: stop the other stage too
+            p.terminate()
     t1 = time.perf_counter()
     _step_stage()
     done("step", time.perf_counter() - t1)

@@ -18,9 +18,10 @@ columns (:data:`DOUBLE_COLUMN` = 7.0 in), fonts legible at that size and on a sl
 caption line with N, run length and quadrature; eta, v0 and t in model units
 (:data:`ETA_LABEL`, :data:`V0_LABEL`, :data:`TIME_UNIT`); log axes where a swept grid is
 logarithmic, symlog where a quantity changes sign.  Every drawing function accepts 1-D
-grids and single points; contours that need a 2-D grid with values on both sides of the
-level are skipped.  Datasets with the ``<name>_err`` variables and the ``undetermined``
-phase code get error bars, hollow markers and hatched cells; older ones draw without.
+grids and single points; threshold contours run on the edges between grid cells whose
+values lie on either side of the level (none where no two neighbours do).  Datasets with
+the ``<name>_err`` variables and the ``undetermined`` phase code get error bars, hollow
+markers and hatched cells; older ones draw without.
 """
 
 from __future__ import annotations

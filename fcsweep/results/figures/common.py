@@ -1,5 +1,6 @@
 """Shared parts of the figures: style, palettes, units, saving, and reading planes,
-errors and labels out of the phase-diagram dataset."""
+errors and labels out of the phase-diagram dataset.  Its helpers are public names for the
+modules of the figures package (not re-exported by :mod:`fcsweep.results.figures`)."""
 
 from __future__ import annotations
 
