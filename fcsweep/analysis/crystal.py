@@ -78,10 +78,12 @@ from fcsweep.analysis.phase import MIN_CONFIDENCE
 from fcsweep.analysis.stats import C_WINDOW, time_average
 from fcsweep.analysis.voronoi import voronoi_neighbors
 
-__all__ = ["CRYSTAL_COHERENCE", "FLUID_LEVEL", "FILLED_LEVEL", "SETTLE_TIME", "MIN_FRAMES", "MIN_SLOPE_SAMPLES",
+__all__ = ["CRYSTAL_COHERENCE", "FLUID_LEVEL", "FILLED_LEVEL", "SETTLE_TIME", "MIN_FRAMES", "MIN_END_FRAMES",
+           "MIN_SLOPE_SAMPLES",
            "COEXISTENCE_UNKNOWN", "COEXISTENCE_SOLID", "COEXISTENCE_NOT_SOLID", "COEXISTENCE_UNDETERMINED",
            "COEXISTENCE_FLAGS", "COEXISTENCE_REASONS", "CrystalTrend", "CoexistenceLabel", "crystalline",
-           "crystal_fraction", "crystal_trend", "solid_speed", "phase_coexistence"]
+           "crystal_fraction", "crystal_trend", "solid_speed", "phase_coexistence", "COEXISTENCE_SCALARS",
+           "coexistence_observables"]
 
 #: Smallest ``Re(psi6_i psi6_j^*)`` a crystalline cell has with each of its six neighbours.
 CRYSTAL_COHERENCE = 0.5
@@ -91,9 +93,11 @@ FLUID_LEVEL = 0.05
 FILLED_LEVEL = 0.75
 #: Time units after the start left out of the slope (the interfaces' roughening).
 SETTLE_TIME = 20.0
-#: Fewest frames (after :data:`SETTLE_TIME`) a label is taken on (fewer give no trustworthy
-#: autocorrelation time).
+#: Fewest frames (after :data:`SETTLE_TIME`) the interface speed is read from (fewer give no
+#: trustworthy autocorrelation time); an end state (melted, filled) is read from 8.
 MIN_FRAMES = 20
+#: Fewest frames (after :data:`SETTLE_TIME`) an end state is read from (a last quarter of 2-4).
+MIN_END_FRAMES = 8
 #: Fewest effectively independent residuals (``n / tau``, tau as estimated) the slope's error
 #: is trusted on (AR(1) with true ``n / tau`` = 11: errors 0.86 of the scatter; 5: 0.66).
 MIN_SLOPE_SAMPLES = 10.0
@@ -105,7 +109,7 @@ COEXISTENCE_FLAGS = {COEXISTENCE_UNKNOWN: "unknown", COEXISTENCE_SOLID: "solid",
 #: Reason codes of ``phase_coexistence``: name -> meaning.
 COEXISTENCE_REASONS = {
     "not_coexistence": "the run did not start from a coexistence start",
-    "too_few_frames": f"fewer than {MIN_FRAMES} frames after the settling time",
+    "too_few_frames": f"fewer than {MIN_END_FRAMES} frames after the settling time (no end state: {MIN_FRAMES})",
     "no_error": f"fewer than {MIN_SLOPE_SAMPLES:g} effective samples for the slope's error",
     "crystal_grows": "the crystal grows: solid is stable",
     "crystal_stays": "the crystal recedes slower than v*: solid",
@@ -116,7 +120,7 @@ COEXISTENCE_REASONS = {
 }
 
 
-def crystalline(pos: np.ndarray, box, radii=None) -> np.ndarray:
+def crystalline(pos: np.ndarray, box, radii=None, vn=None) -> np.ndarray:
     """Crystalline cells of one frame (module docstring: six Voronoi neighbours, each with
     ``Re(psi6_i psi6_j^*) >= CRYSTAL_COHERENCE``).
 
@@ -127,12 +131,15 @@ def crystalline(pos: np.ndarray, box, radii=None) -> np.ndarray:
     box : (Lx, Ly)
     radii : ndarray, shape (N,), optional
         Per-cell radii (the radical tessellation, :func:`fcsweep.analysis.voronoi.voronoi_neighbors`).
+    vn : fcsweep.analysis.voronoi.VoronoiNeighbors, optional
+        The frame's tessellation, when the caller has it (else computed).
 
     Returns
     -------
     ndarray of bool, shape (N,)
     """
-    vn = voronoi_neighbors(pos, box, radii)
+    if vn is None:
+        vn = voronoi_neighbors(pos, box, radii)
     ps = psi6(pos, box, vn.nlist)
     N = len(ps)
     coherent = np.real(ps[vn.i] * np.conj(ps[vn.j])) >= CRYSTAL_COHERENCE
@@ -301,10 +308,10 @@ def phase_coexistence(t, f, box, N: int, *, min_confidence: float = MIN_CONFIDEN
     v_star = solid_speed(height, n_rows, d_solid)
     keep = t >= t[0] + settle_time if t.size else np.zeros(0, bool)
     tk, fk = t[keep], f[keep]
-    if tk.size < MIN_FRAMES:
+    if tk.size < MIN_END_FRAMES:
         return CoexistenceLabel(COEXISTENCE_UNDETERMINED, float("nan"),
                                 f"{tk.size} frames after the first {settle_time:g} time units; "
-                                f"{MIN_FRAMES} needed", "too_few_frames")
+                                f"{MIN_END_FRAMES} needed", "too_few_frames")
     last = time_average(fk[-max(4, fk.size // 4):], equilibrate=False)
     p_gone = _p_above(FLUID_LEVEL, last.mean, last.err)
     end = f"crystal fraction {last.mean:.3f} ± {last.err:.1g} over the last quarter"
@@ -315,6 +322,10 @@ def phase_coexistence(t, f, box, N: int, *, min_confidence: float = MIN_CONFIDEN
     if p_filled >= min_confidence:
         return CoexistenceLabel(COEXISTENCE_SOLID, p_filled,
                                 f"solid: the crystal filled the box: {end}, above {FILLED_LEVEL:g}", "crystal_filled")
+    if tk.size < MIN_FRAMES:
+        return CoexistenceLabel(COEXISTENCE_UNDETERMINED, float("nan"),
+                                f"{end}: no end state, and {tk.size} frames after the first {settle_time:g} time "
+                                f"units for the interface speed; {MIN_FRAMES} needed", "too_few_frames")
     trend = crystal_trend(tk, fk)
     v, v_err = trend.slope * height / 2.0, trend.slope_err * height / 2.0
     if not (np.isfinite(v_err) and trend.n_eff >= MIN_SLOPE_SAMPLES):
@@ -335,3 +346,38 @@ def phase_coexistence(t, f, box, N: int, *, min_confidence: float = MIN_CONFIDEN
     return CoexistenceLabel(COEXISTENCE_UNDETERMINED, max(p_solid, 1.0 - p_solid),
                             f"{speed}: P(solid) = {p_solid:.3f}; a longer run decides", "near_v_threshold",
                             v, v_err)
+
+
+#: The run scalars of :func:`coexistence_observables` (NaN unless the run started ``coexistence``).
+COEXISTENCE_SCALARS = ("crystal_fraction", "crystal_fraction_err", "crystal_speed", "crystal_speed_err",
+                       "phase_coexistence", "phase_coexistence_confidence")
+
+
+def coexistence_observables(t, f, box, N: int, *, min_confidence: float = MIN_CONFIDENCE) -> dict:
+    """The run scalars of a coexistence run from its analysed frames.
+
+    Parameters
+    ----------
+    t : array_like, shape (n,)
+        Times of the frames since the start (the first analysed frame may come after the
+        transient: the settling time is then counted from the start, ``t = 0``).
+    f : array_like, shape (n,)
+        Crystal fraction of each frame.
+    box, N, min_confidence
+        As for :func:`phase_coexistence`.
+
+    Returns
+    -------
+    dict
+        :data:`COEXISTENCE_SCALARS`: the time average of ``f`` with its error
+        (:func:`fcsweep.analysis.stats.time_average`, no cut), the interface speed the label
+        read (NaN when an end state decided it) and the label's code and confidence.
+    """
+    t = np.asarray(t, dtype=float).ravel()
+    f = np.asarray(f, dtype=float).ravel()
+    avg = time_average(f, equilibrate=False)
+    settle = max(0.0, SETTLE_TIME - float(t[0])) if t.size else SETTLE_TIME
+    lab = phase_coexistence(t, f, box, N, min_confidence=min_confidence, settle_time=settle)
+    return {"crystal_fraction": avg.mean, "crystal_fraction_err": avg.err, "crystal_speed": lab.speed,
+            "crystal_speed_err": lab.speed_err, "phase_coexistence": float(lab.code),
+            "phase_coexistence_confidence": lab.confidence}
