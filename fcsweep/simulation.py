@@ -301,6 +301,13 @@ class Simulation:
         conf = p.confinement
         centres = random_centres(p.N, box, srng) if conf is None else conf.random_points(p.N, srng, inset=p.R0)
         pos, _ = soft_disc_relax(centres, box, p.R0, radii=p.radii, confinement=conf)
+        return cls._relaxed_start(p, pos, box, srng, relax_time)
+
+    @classmethod
+    def _relaxed_start(cls, p: SimParams, pos, box, srng, relax_time: float) -> "Simulation":
+        """The end of the disordered and coexistence starts: polarities from ``PCG64(seed)``,
+        then ``relax_time`` of the model at v0 = 0, noise and polarities held, drawing
+        (nothing) from the start's stream ``srng``; circular cells at ``pos`` before it."""
         rng = np.random.Generator(np.random.PCG64(p.seed))
         theta = rng.uniform(0.0, 2.0 * np.pi, p.N)
         M1 = max(p.modes - 1, 0)
@@ -349,16 +356,7 @@ class Simulation:
             raise ValueError(problem)
         srng = coexistence_rng(p.seed)
         pos, _, box = coexistence_centres(p.N, p.density, p.R0, srng)
-        rng = np.random.Generator(np.random.PCG64(p.seed))
-        theta = rng.uniform(0.0, 2.0 * np.pi, p.N)
-        M1 = max(p.modes - 1, 0)
-        state = State(pos=pos, image=np.zeros((p.N, 2), np.int64), theta=theta.copy(),
-                      a=np.zeros((p.N, M1)), b=np.zeros((p.N, M1)), box=box.copy())
-        relax = cls(dataclasses.replace(p, v0=0.0, Dr=0.0, mu_theta=0.0), state, srng)
-        relax.advance(int(round(relax_time / p.dt)))
-        state = State(pos=relax.state.pos, image=np.zeros((p.N, 2), np.int64), theta=theta,
-                      a=relax.state.a, b=relax.state.b, box=box)
-        return cls(p, state, rng)
+        return cls._relaxed_start(p, pos, box, srng, relax_time)
 
     # ------------------------------------------------------------------ dynamics
     @property
