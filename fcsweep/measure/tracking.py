@@ -47,9 +47,13 @@ def link_frames(prev: np.ndarray, prev_tracks: dict, frame: np.ndarray, labels: 
     ids = np.full(len(labels), -1, dtype=np.int64)
     if prev is not None:
         both = (prev > 0) & (frame > 0)
-        p, c = prev[both], frame[both]
         base = int(frame.max()) + 1
-        pairs, overlap = np.unique(p * base + c, return_counts=True)
+        key = prev[both].astype(np.int64)  # the pair (prev label, label) of each shared pixel, built in place
+        key *= base
+        key += frame[both]
+        del both
+        pairs, overlap = np.unique(key, return_counts=True)
+        del key
         pl, cl = pairs // base, pairs % base
         area_p = np.bincount(prev.ravel())
         area_c = np.bincount(frame.ravel())
