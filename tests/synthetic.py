@@ -129,14 +129,16 @@ def aligned_mosaic(n, domain, rng, *, tilt=0.03, jitter=0.05, a=1.0, random_orie
 
 
 def creeping_lattice(D, rng, *, n_side=16, area_fraction=0.95, R0=1.0, jitter=0.1, tau_jitter=50.0,
-                     frame_dt=10.0, span=30000.0):
+                     frame_dt=10.0, span=30000.0, gaussian=False):
     """A creeping solid / slow fluid: ``n_side**2`` cells at the sites of a triangular
     lattice of area fraction ``area_fraction`` (cells of radius R0; spacing
     ``a = (2 pi R0^2 / (sqrt(3) area_fraction))^(1/2)``), each jittering about its site
     (Ornstein-Uhlenbeck, sd ``jitter * R0`` per axis, relaxation time ``tau_jitter``) and
     hopping by one spacing ``a`` in a random direction at Poisson times of rate
     ``4 D / a^2`` (independently of its neighbours), so that its long-time
-    self-diffusion coefficient is ``D``. Frames every ``frame_dt`` over ``span``.
+    self-diffusion coefficient is ``D``. Frames every ``frame_dt`` over ``span``. With
+    ``gaussian`` the cells creep by Brownian steps of the same ``D`` instead of hops (a
+    fluid whose displacements are Gaussian).
 
     Returns
     -------
@@ -150,11 +152,14 @@ def creeping_lattice(D, rng, *, n_side=16, area_fraction=0.95, R0=1.0, jitter=0.
     box = (n_side * a, n_side * a * np.sqrt(3) / 2)
     T = int(round(span / frame_dt)) + 1
     N = sites.shape[0]
-    hops = rng.poisson(4.0 * D / a ** 2 * frame_dt, size=(T - 1, N))
-    steps = np.zeros((T - 1, N, 2))
-    for n in range(1, int(hops.max(initial=0)) + 1):  # each hop its own random direction
-        ang = rng.uniform(0, 2 * np.pi, size=(T - 1, N))
-        steps += (hops >= n)[..., None] * a * np.stack([np.cos(ang), np.sin(ang)], -1)
+    if gaussian:
+        steps = rng.normal(scale=np.sqrt(2.0 * D * frame_dt), size=(T - 1, N, 2))
+    else:
+        hops = rng.poisson(4.0 * D / a ** 2 * frame_dt, size=(T - 1, N))
+        steps = np.zeros((T - 1, N, 2))
+        for n in range(1, int(hops.max(initial=0)) + 1):  # each hop its own random direction
+            ang = rng.uniform(0, 2 * np.pi, size=(T - 1, N))
+            steps += (hops >= n)[..., None] * a * np.stack([np.cos(ang), np.sin(ang)], -1)
     walk = np.concatenate([np.zeros((1, N, 2)), np.cumsum(steps, axis=0)])
     f = np.exp(-frame_dt / tau_jitter)
     sd = jitter * R0

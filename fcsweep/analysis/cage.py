@@ -38,7 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.special import j0, ndtr
 
-from fcsweep.analysis.diffusion import free_diffusion
+from fcsweep.analysis.diffusion import D_EFF_SOLID, free_diffusion
 from fcsweep.analysis.frames import FrameSource
 from fcsweep.analysis.voronoi import voronoi_neighbors
 
@@ -97,6 +97,9 @@ class CageBreaking:
         lags lie past ``t*``. The fluid rule reads this one.
     inv_neighbours : float
         ``<1/n_i>``: Voronoi neighbour counts at the time origins.
+    fs_lags, fs_blocks : ndarray
+        The first pass's lags (time units) and ``F_s`` of each spatial block there, for
+        :meth:`fs_at`.
     """
 
     spacing: float
@@ -114,6 +117,8 @@ class CageBreaking:
     D_late: float = float("nan")
     D_late_err: float = float("nan")
     inv_neighbours: float = float("nan")
+    fs_lags: np.ndarray = None
+    fs_blocks: np.ndarray = None
 
     def d_eff_bound(self, v0: float, Dr: float) -> float:
         """``a^2 / (4 t* D0)``: the D_eff a broken cage at ``t*`` stands for (NaN if D0 is 0).
@@ -124,6 +129,31 @@ class CageBreaking:
         return float(self.spacing ** 2 / (4.0 * self.lag * D0))
 
 
+    def fs_at(self, lag: float) -> tuple[float, float]:
+        """``F_s(2 pi / a)`` at the largest measured lag not above ``lag`` and its error over
+        the spatial blocks; NaN where ``lag`` is before the first lag or beyond the window."""
+        if self.fs_lags is None or not np.isfinite(lag) or lag > self.fs_lags[-1] or lag < self.fs_lags[0]:
+            return float("nan"), float("nan")
+        i = int(np.searchsorted(self.fs_lags, lag, side="right")) - 1
+        b = self.fs_blocks[i]
+        b = b[np.isfinite(b)]
+        if b.size < 2:
+            return float("nan"), float("nan")
+        return float(b.mean()), float(b.std(ddof=1) / np.sqrt(b.size))
+
+    def relaxation_lag(self, v0: float, Dr: float, d_solid: float) -> float:
+        """The lag by which a state with ``D_eff`` at ``d_solid`` would at the earliest have
+        relaxed: ``F_s(2 pi / a)`` of Gaussian cage-relative displacements is
+        ``exp(-pi^2 MSD / a^2)``, ``1/e`` at ``MSD = a^2 / pi^2``, reached at
+        ``a^2 / (4 pi^2 D_cr)`` with ``D_cr = d_solid D0 (1 + <1/n>)``.  Any other shape of the
+        displacements (hops, a plateau) relaxes later at the same D: so ``F_s`` below ``1/e``
+        at this lag means ``D_eff > d_solid``."""
+        D0 = free_diffusion(v0, Dr)
+        inv_n = self.inv_neighbours if np.isfinite(self.inv_neighbours) else 1.0 / 6.0
+        if not (np.isfinite(D0) and D0 > 0):
+            return float("nan")
+        return float(self.spacing ** 2 / (4.0 * np.pi ** 2 * d_solid * D0 * (1.0 + inv_n)))
+
     def scalars(self, v0: float, Dr: float) -> dict:
         """The cage observables as stored in ``analysis.h5`` (names of the pipeline; the
         diffusion coefficients past ``t*`` in units of D0)."""
@@ -133,7 +163,9 @@ class CageBreaking:
                 "cage_msd_ratio_err": self.ratio_err, "cage_broken_probability": self.p_broken,
                 "cage_d_eff_bound": self.d_eff_bound(v0, Dr), "F_s_window": self.fs, "tau_alpha": self.tau_alpha,
                 "D_eff_cr_late": self.D_late / D0 if D0 > 0 else float("nan"),
-                "D_eff_cr_late_err": self.D_late_err / D0 if D0 > 0 else float("nan")}
+                "D_eff_cr_late_err": self.D_late_err / D0 if D0 > 0 else float("nan"),
+                **dict(zip(("F_s_bound", "F_s_bound_err"), self.fs_at(self.relaxation_lag(v0, Dr, D_EFF_SOLID)))),
+                "relaxation_lag": self.relaxation_lag(v0, Dr, D_EFF_SOLID)}
 
 
 def broken_probability(ratio: float, err: float) -> float:
@@ -191,7 +223,7 @@ def cage_breaking(time, unwrapped, box, *, spacing: float | None = None,
     side = np.floor(np.mod(x[0], L) / L * BLOCKS_PER_SIDE).astype(int) % BLOCKS_PER_SIDE
     block = side[:, 0] * BLOCKS_PER_SIDE + side[:, 1]
     shells = {}
-    msd, fs, per_cell, inv_n = _cage_curves(x, lags, L, k, n_origins, shells, neighbours, cells)
+    msd, fs, per_cell, inv_n, per_fs = _cage_curves(x, lags, L, k, n_origins, shells, neighbours, cells)
     if not np.isfinite(msd).all():  # no cell counted at some origin
         e = np.zeros(0)
         return CageBreaking(a, nan, nan, nan, nan, nan, nan, e, e, e)
@@ -203,6 +235,8 @@ def cage_breaking(time, unwrapped, box, *, spacing: float | None = None,
             return np.stack([np.nanmean(pc[:, block == b], axis=1) for b in labels], axis=1) / a ** 2
 
     blocks = by_block(per_cell)
+    fs_blocks = by_block(per_fs) * a ** 2  # (lags, blocks): F_s of each spatial block, for fs_at
+    fs_lags = lags * h
     ratios = msd / a ** 2
     errs = blocks.std(axis=1, ddof=1) / np.sqrt(labels.size) if labels.size > 1 else np.full(lags.size, nan)
     # the test lag: the first at which the cages are broken by 3 errors, else the whole window
@@ -218,7 +252,7 @@ def cage_breaking(time, unwrapped, box, *, spacing: float | None = None,
         def add(more):  # the curves at more lags (frames), merged in lag order
             more = np.setdiff1d(np.unique(np.round(more).astype(int)), curves[0])
             if more.size:
-                m2, f2, p2, _ = _cage_curves(x, more, L, k, n_origins, shells, neighbours, cells)
+                m2, f2, p2, _, _ = _cage_curves(x, more, L, k, n_origins, shells, neighbours, cells)
                 order = np.argsort(np.concatenate([curves[0], more]))
                 for q, new in enumerate((more, m2, f2, by_block(p2))):
                     curves[q] = np.concatenate([curves[q], new])[order]
@@ -252,13 +286,13 @@ def cage_breaking(time, unwrapped, box, *, spacing: float | None = None,
         w = (f0 - np.exp(-1.0)) / (f0 - f1)
         tau = float(np.exp(np.log(lags[i - 1] * h) + w * (np.log(lags[i] * h) - np.log(lags[i - 1] * h))))
     return CageBreaking(a, float(lags[at] * h), ratio, err, p, float(fs[at]), tau, lags * h, msd, fs, D, D_err,
-                        float(D_late), float(D_late_err), float(inv_n))
+                        float(D_late), float(D_late_err), float(inv_n), fs_lags, fs_blocks)
 
 
 def _cage_curves(x, lags, L, k, n_origins, shells, neighbours=None, cells=None):
-    """Cage-relative MSD, ``F_s`` and per-cell mean squares at ``lags`` (frames), and
-    ``<1/n_i>`` over the cells and origins.  A cell never counted at a lag's origins has a
-    NaN mean square there.
+    """Cage-relative MSD, ``F_s`` and per-cell mean squares at ``lags`` (frames),
+    ``<1/n_i>`` over the cells and origins, and per-cell means of ``F_s``.  A cell never
+    counted at a lag's origins has a NaN mean square there.
 
     Each time origin is tessellated once per call and measured at every lag that uses it;
     ``shells`` keeps origins' shells for later calls up to :data:`SHELL_CACHE_BYTES` (all
@@ -268,6 +302,7 @@ def _cage_curves(x, lags, L, k, n_origins, shells, neighbours=None, cells=None):
     msd = np.zeros(lags.size)
     fs = np.zeros(lags.size)
     per_cell = np.zeros((lags.size, N))
+    per_fs = np.zeros((lags.size, N))
     per_count = np.zeros((lags.size, N))
     of_lag = [np.unique(np.linspace(0, T - 1 - m, min(n_origins, T - m)).astype(int)) for m in lags]
     users: dict[int, list[int]] = {}  # origin -> its lags, in the order first met (lag by lag)
@@ -303,12 +338,14 @@ def _cage_curves(x, lags, L, k, n_origins, shells, neighbours=None, cells=None):
             msd[q] += (su.mean() if su.size else np.nan) / of_lag[q].size
             fs[q] += (j0(k * np.sqrt(su)).mean() if su.size else np.nan) / of_lag[q].size
             per_cell[q] += np.where(use, s, 0.0)
+            per_fs[q] += np.where(use, j0(k * np.sqrt(s)), 0.0)
             per_count[q] += use
     with np.errstate(invalid="ignore", divide="ignore"):
         per_cell = np.where(per_count > 0, per_cell / np.maximum(per_count, 1), np.nan)
+        per_fs = np.where(per_count > 0, per_fs / np.maximum(per_count, 1), np.nan)
     means = [inv[o] for o in users if o in inv]  # first-met order, as the mean always took them
     inv_n = float(np.mean(means)) if means else float("nan")
-    return msd, fs, per_cell, inv_n
+    return msd, fs, per_cell, inv_n, per_fs
 
 
 def _slope_past(t: np.ndarray, curves: np.ndarray) -> tuple[float, float]:

@@ -230,6 +230,11 @@ class PhaseEvidence:
         The measured systematic offsets of the run's contour rule and step
         (``q_bias_low``, ``q_bias_high``, ``d_bias_low``, ``d_bias_high``,
         :func:`fcsweep.model.systematics.rule_bias`; zeros where not stored).
+    p_relaxed : float
+        ``P(F_s_bound < 1/e)``: the probability that the cage-relative ``F_s(2 pi / a)``
+        decayed by ``relaxation_lag``, faster than any state at ``D_eff = 1e-3`` can
+        (:meth:`fcsweep.analysis.cage.CageBreaking.relaxation_lag`); NaN where that lag is
+        beyond the window.
     """
 
     D_solid: float
@@ -246,6 +251,7 @@ class PhaseEvidence:
     D_solid_name: str = "D_eff"
     stationary: bool = True
     bias: tuple = (0.0, 0.0, 0.0, 0.0)
+    p_relaxed: float = float("nan")
 
 
 def solid_test_name(sc: dict) -> str:
@@ -300,6 +306,18 @@ def _flag(sc: dict, name: str) -> bool:
     return bool(np.isfinite(v) and v >= 0.5)
 
 
+#: F_s(2 pi / a) below which the structure relaxed (the definition of tau_alpha).
+F_S_RELAXED = float(np.exp(-1.0))
+
+
+def relaxed_probability(sc: dict) -> float:
+    """``P(F_s_bound < 1/e)`` from ``F_s_bound`` and its error (NaN where not measured)."""
+    f, e = float(sc.get("F_s_bound", np.nan)), float(sc.get("F_s_bound_err", np.nan))
+    if not (np.isfinite(f) and np.isfinite(e)):
+        return float("nan")
+    return 1.0 - p_above(f, e, F_S_RELAXED)
+
+
 def phase_evidence(sc: dict, note: str | None = None) -> PhaseEvidence:
     """The evidence of the phase rule from stored scalars (a run's, or a point's
     replicate-combined ones with its flags the least favourable replicate's).
@@ -328,7 +346,7 @@ def phase_evidence(sc: dict, note: str | None = None) -> PhaseEvidence:
                          float(sc.get("q_mean_err", np.nan)), code, solid_test_name(sc),
                          not _flag(sc, "equilibration_at_limit"),
                          tuple(float(np.nan_to_num(sc.get(k, 0.0), nan=0.0, posinf=np.inf, neginf=-np.inf))
-                               for k in BIAS_KEYS))
+                               for k in BIAS_KEYS), relaxed_probability(sc))
 
 
 #: The scalars of the measured systematic offsets (:func:`fcsweep.model.systematics.rule_bias`).
@@ -366,7 +384,7 @@ def rule_sensitivity(lab: Label, ev: PhaseEvidence, *, d_solid: float = D_EFF_SO
                 "depend on it; rerun at dt <= 0.02")
     broken = lab.reason_code == "decided_cages_broken"
     D, name = (ev.D_late, "D_eff_cr_late") if broken else (ev.D_solid, ev.D_solid_name)
-    if np.isfinite(D) and dl > -1.0 and dh > -1.0:
+    if lab.reason_code != "decided_relaxed" and np.isfinite(D) and dl > -1.0 and dh > -1.0:
         lo, hi = D / (1.0 + dh), D / (1.0 + dl)
         if lo < d_solid < hi:
             return (f"{name} = {D:.3g}, corrected by the measured offset of D for this contour rule and dt "
@@ -398,14 +416,20 @@ def phase_rule(ev: PhaseEvidence, *, min_confidence: float = MIN_CONFIDENCE, d_s
     """
     if not ev.stationary:
         return Label(PHASE_UNDETERMINED, float("nan"), NOT_STATIONARY, "not_stationary")
-    p_b = ev.p_broken
+    p_b, p_r = ev.p_broken, ev.p_relaxed
+    relaxed = np.isfinite(p_r) and p_r >= min_confidence
     if np.isfinite(p_b) and p_b >= min_confidence:
-        return _broken_label(ev, min_confidence, d_solid, q_star)
+        lab = _broken_label(ev, min_confidence, d_solid, q_star)
+        # broken, but too few lags past the breaking for D_eff_cr_late: F_s may still decide
+        return _relaxed_label(ev, min_confidence, q_star) if relaxed and lab.reason_code in (
+            "few_late_lags", "no_error") else lab
+    if relaxed:
+        return _relaxed_label(ev, min_confidence, q_star)
     D, De, name = ev.D_solid, ev.D_solid_err, ev.D_solid_name
     d_known = ev.solid_trusted and np.isfinite(D) and np.isfinite(De)
     p_solid_d = 1.0 - p_above(D, De, d_solid) if d_known else float("nan")
     if d_known and p_solid_d >= min_confidence:
-        conf = float(p_solid_d * (1.0 - p_b if np.isfinite(p_b) else 1.0))
+        conf = float(p_solid_d * (1.0 - p_b if np.isfinite(p_b) else 1.0) * (1.0 - p_r if np.isfinite(p_r) else 1.0))
         if conf < min_confidence:
             return Label(PHASE_UNDETERMINED, conf, f"{name} = {_fmt(D, De)} reads solid but the cages may be "
                                                    f"broken (P = {p_b:.2f}); a longer run decides",
@@ -426,6 +450,27 @@ def phase_rule(ev: PhaseEvidence, *, min_confidence: float = MIN_CONFIDENCE, d_s
         rc = "near_d_threshold"
     cage = ev.cage_note or "no evidence that the cells left their cages"
     return Label(PHASE_UNDETERMINED, conf, f"{why}; {cage}; a longer run decides", rc)
+
+
+def _relaxed_label(ev: PhaseEvidence, min_confidence, q_star) -> Label:
+    """:func:`phase_rule` where the cage-relative ``F_s`` decayed faster than a state at the
+    solid threshold can (the cages not yet broken by ``a^2``): not solid, and ``<q>``
+    decides fluid against soft fluid."""
+    relaxed = (f"cage-relative F_s(2 pi / a) below 1/e by the lag a state at D_eff = 1e-3 would need at the "
+               f"earliest (P = {ev.p_relaxed:.3f}): not solid")
+    q, qe = ev.q, ev.q_err
+    if not np.isfinite(q):
+        return Label(PHASE_UNKNOWN, float("nan"), "<q> not available", "not_available")
+    if not np.isfinite(qe):
+        return Label(PHASE_UNDETERMINED, float("nan"), "<q> has no error estimate", "no_error")
+    p_soft = p_above(q, qe, q_star)
+    p = {PHASE_SOFT_FLUID: ev.p_relaxed * p_soft, PHASE_FLUID: ev.p_relaxed * (1.0 - p_soft)}
+    best = max(p, key=lambda k: p[k])
+    conf = float(p[best])
+    if conf < min_confidence:
+        return Label(PHASE_UNDETERMINED, conf, f"{relaxed}, but <q> = {_fmt(q, qe)} too close to {q_star:g} "
+                                               f"(P = {conf:.2f} < {min_confidence:.2f})", "near_q_star")
+    return Label(int(best), conf, f"{relaxed}; P({phase_name(best)}) = {conf:.3f}", "decided_relaxed")
 
 
 def _broken_label(ev: PhaseEvidence, min_confidence, d_solid, q_star) -> Label:

@@ -25,7 +25,8 @@ from fcsweep.analysis.reasons import reason_value
 from fcsweep.analysis.stats import combine
 
 #: Numbers the labels read, combined over replicates (each with ``<name>_err``).
-COMBINED = ("D_eff", "D_eff_long", "D_eff_cr", "D_eff_cr_late", "cage_msd_ratio", "q_mean", "rho_d", "psi6")
+COMBINED = ("D_eff", "D_eff_long", "D_eff_cr", "D_eff_cr_late", "cage_msd_ratio", "q_mean", "rho_d", "psi6",
+            "F_s_bound")
 #: Trust flags and counts: a point takes the smallest over its replicates.
 LEAST = ("msd_long_enough", "msd_diffusive", "n_time_blocks")
 #: Flags of the point's evidence taken as the largest over its replicates (NaN counts as 0).

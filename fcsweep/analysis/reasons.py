@@ -93,6 +93,9 @@ REASONS = (
     _R(20, "near_rho_threshold", "rho_d too close to the percolation threshold", ("percolated",),
        "rho_d near 1/2"),
     _R(21, "decided_rho_d", "rho_d with its error decides", ("percolated",)),
+    _R(22, "decided_relaxed", "not solid: the cage-relative F_s(2 pi / a) fell below 1/e faster than a state at "
+                              "D_eff = 1e-3 can, before the cages broke by a^2; <q> decides fluid against soft fluid",
+       ("phase",)),
     _R(30, "not_computed", "correlations G6, G_r, C_G1 not computed", ("kthny",), "no data"),
     _R(31, "too_few_cells", "too few cells for C_G1 and G6 over half a box", ("kthny",), "too few cells"),
     _R(32, "g6_not_fitted", "G6 could not be fitted", ("kthny",), "G6 not fitted"),

@@ -138,6 +138,11 @@ OBSERVABLES: dict[str, Observable] = {o.name: o for o in (
                                   "label reads it)"),
     _O("F_s_window", "run", "self-intermediate scattering function of cage-relative displacements at k = 2 pi / a "
                             "and the lag cage_lag"),
+    _O("relaxation_lag", "run", "lag by which a state at D_eff = 1e-3 would at the earliest relax: "
+                                "a^2 / (4 pi^2 1e-3 D0 (1 + <1/n>)), Gaussian cage-relative displacements"),
+    _O("F_s_bound", "run", "cage-relative F_s(2 pi / a) at relaxation_lag (NaN: beyond the window): below 1/e "
+                           "the phase rule reads not solid"),
+    _O("F_s_bound_err", "run", "1-sigma error of F_s_bound over 16 spatial blocks"),
     _O("tau_alpha", "run", "structural relaxation time: lag where F_s first falls below 1/e (time units; NaN: not "
                            "within the window)"),
     _O("D_eff_cr", "run", "cage-relative D_eff: a quarter of the late slope of the cage-relative MSD over D0 (the "
