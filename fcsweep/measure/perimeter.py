@@ -33,9 +33,7 @@ from scipy import ndimage
 from fcsweep.measure.runs import ORIENTATIONS, count_outside, digital_runs
 
 __all__ = ["blurred_line", "polygon_perimeter", "blurred_perimeter", "closed_length", "mismatch", "edge_band", "BLUR",
-           "STEP",
-           "MIN_RUN", "MIN_CORNER_SINE", "MAX_CORNER_SHIFT",
-           "CORNER_TOLERANCE"]
+           "STEP", "MIN_RUN", "MIN_CORNER_SINE", "MAX_CORNER_SHIFT", "CORNER_TOLERANCE"]
 
 #: Standard deviation (pixels) of the Gaussian blur of the mask before its sub-pixel outline is traced.
 BLUR = 1.0
