@@ -181,3 +181,17 @@ def test_reader_error_is_a_measure_input_error_not_a_raw_one(tmp_path):
     (tmp_path / "bad.tif").write_bytes(b"II*\x00\x08\x00\x00\x00" + payload)
     with pytest.raises(MeasureInputError, match="bad.tif"):
         measure(tmp_path / "bad.tif")
+
+
+def test_binary_mask_from_the_command_line(tmp_path):
+    """The CLI refuses a binary PNG in one line naming --label-binary, and measures it with it."""
+    from PIL import Image
+
+    png = tmp_path / "binary.png"
+    Image.fromarray(np.where(_discs() > 0, 255, 0).astype(np.uint8)).save(png)
+    r = CliRunner().invoke(cli, ["measure", str(png), "-o", str(tmp_path / "a")])
+    assert r.exit_code == 2 and "--label-binary" in r.output and len(r.output.strip().splitlines()) == 1
+    assert not (tmp_path / "a" / "measure.nc").exists()
+    r = CliRunner().invoke(cli, ["measure", str(png), "-o", str(tmp_path / "b"), "--label-binary"])
+    assert r.exit_code == 0, r.output
+    assert (tmp_path / "b" / "measure.nc").exists()

@@ -7,6 +7,7 @@ import sys
 import click
 
 from fcsweep.cli.common import say
+from fcsweep.model.settings import PERCOLATION_THRESHOLD
 
 
 @click.command()
@@ -21,7 +22,7 @@ from fcsweep.cli.common import say
 @click.option("--time-unit", default=None, help="CF/UDUNITS time unit, e.g. min [TIFF metadata, else 1].")
 @click.option("--modes", type=click.IntRange(min=2, max=16), default=6, show_default=True,
               help="Highest Fourier mode M of the contour fit.")
-@click.option("--percolation-threshold", type=click.FloatRange(0, 1), default=0.5, show_default=True,
+@click.option("--percolation-threshold", type=click.FloatRange(0, 1), default=PERCOLATION_THRESHOLD, show_default=True,
               help="rho_d above which a frame is percolated.")
 @click.option("--neighbours", type=click.Choice(["voronoi", "contact"]), default="voronoi", show_default=True,
               help="Defect graph: Voronoi of the centroids (the paper's rule) or touching masks.")
@@ -29,8 +30,11 @@ from fcsweep.cli.common import say
               help="Cell speed in --length-unit per --time-unit, if known (with --Dr: D_eff).")
 @click.option("--Dr", "Dr", type=click.FloatRange(min=0, min_open=True), default=None,
               help="Rotational diffusion in 1 / --time-unit, if known (active-Brownian fit of D_s).")
+@click.option("--label-binary", is_flag=True,
+              help="Label a binary (0/1 or 0/255) mask by its connected components instead of refusing it "
+                   "(touching cells then merge: a segmentation's labels are better).")
 def measure(images, output, pixel_size, frame_interval, times, length_unit, time_unit, modes, percolation_threshold,
-            neighbours, v0, Dr):
+            neighbours, v0, Dr, label_binary):
     """The simulations' observables of segmented cell images: q, Voronoi defects and their
     clusters, psi6; over a movie tracks, MSD, D_s, cages and the percolation and phase labels.
 
@@ -54,7 +58,7 @@ def measure(images, output, pixel_size, frame_interval, times, length_unit, time
             path = measure_to_dir(images, output, pixel_size=pixel_size, frame_interval=frame_interval,
                                   length_unit=length_unit, time_unit=time_unit, times=times, modes=modes,
                                   percolation_threshold=percolation_threshold, v0=v0, Dr=Dr,
-                                  neighbours=neighbours)
+                                  neighbours=neighbours, label_binary=label_binary)
     except (ImportError, MeasureInputError) as exc:
         say(str(exc))
         sys.exit(2)

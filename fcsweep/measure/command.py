@@ -8,6 +8,7 @@ from pathlib import Path
 
 from fcsweep.measure.dataset import measure_to_file
 from fcsweep.measure.readers import MeasureInputError
+from fcsweep.model.settings import PERCOLATION_THRESHOLD
 
 __all__ = ["parse_pixel_size", "parse_times", "measure_to_dir", "EXAMPLE", "EXAMPLE_PIXEL_SIZE"]
 
@@ -45,8 +46,8 @@ def parse_times(text: str | None):
 def measure_to_dir(images, out, *, pixel_size: str | None = None, frame_interval: float | None = None,
                    length_unit: str | None = None, time_unit: str | None = None, times: str | None = None,
                    modes: int = 6,
-                   percolation_threshold: float = 0.5, v0: float | None = None, Dr: float | None = None,
-                   neighbours: str = "voronoi", label_binary: bool = False) -> Path:
+                   percolation_threshold: float = PERCOLATION_THRESHOLD, v0: float | None = None,
+                   Dr: float | None = None, neighbours: str = "voronoi", label_binary: bool = False) -> Path:
     """Measure ``images`` (paths) and write ``out/measure.nc``, streaming
     (:func:`fcsweep.measure.dataset.measure_to_file`); None options come from the
     TIFF's metadata or default to 1 (:func:`fcsweep.measure.calibration.resolve`).

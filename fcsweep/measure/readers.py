@@ -138,7 +138,7 @@ def check_frame(frame, where: str, shape=None, label_binary: bool = False) -> np
         if not label_binary:
             raise MeasureInputError(f"{where}: a binary mask (values 0 and {int(arr.max())}), not a label image: "
                                     "label its connected cells first (Cellpose, StarDist, scipy.ndimage.label), or "
-                                    "pass label_binary=True to label them here")
+                                    "pass label_binary=True (fcsweep measure --label-binary) to label them here")
         arr = ndimage.label(arr != 0, structure=np.ones((3, 3), dtype=bool))[0]
     return arr.astype(np.int64, copy=False)
 
