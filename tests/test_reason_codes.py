@@ -75,7 +75,8 @@ def test_the_table_is_well_formed():
     assert reason_name(0) == "not_recorded" and reason_name(99) == "not_recorded"
     # every code a figure would explain (an undetermined reason) has its words
     decided = {"not_recorded", "solid_cages_intact", "decided_cages_broken", "decided_d_eff",
-               "decided_q_no_d_eff", "decided_rho_d", "decided_exponents", "replicates_agree", "starts_agree"}
+               "decided_q_no_d_eff", "decided_rho_d", "decided_exponents", "replicates_agree", "starts_agree",
+               "decided_relaxed"}
     assert all(bool(r.short) == (r.name not in decided) for r in REASONS)
     assert set(TEXT_OF) <= set(REASON_BY_NAME)
     with pytest.raises(ValueError, match="undeclared reason code"):
