@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 import xarray as xr
 from matplotlib.container import ErrorbarContainer
+from fake_trajectory import FakeTrajectory
 from matplotlib.patches import Rectangle
 
 from fcsweep.results import figures as plots
@@ -456,27 +457,11 @@ def test_cluster_colour_bar_only_when_clusters_are_drawn():
     matplotlib.pyplot.close("all")
 
 
-class _FakeTrajectory:
-    """The parts of :class:`fcsweep.io.trajectory.Trajectory` that frames read."""
-
-    def __init__(self, n_frames=3):
-        self.pos, self.box = hexagonal_lattice(16)
-        self.params = {"run_id": "abc", "eta": 0.05, "v0": 0.03, "R0": 1.0}
-        self.time = np.arange(n_frames) * 2.5
-        self.n_frames = n_frames
-        self.fields = {"position", "theta"}
-
-    def read(self, name, frames):
-        if name == "position":
-            return np.stack([self.pos + 0.01 * k for k in frames])
-        return np.zeros((len(frames), len(self.pos)))
-
-
 def test_snapshot_title_has_model_units(tmp_path, monkeypatch):
     import fcsweep.io.trajectory as trajectory
 
-    monkeypatch.setattr(trajectory, "open_trajectory", lambda p: _FakeTrajectory())
-    title = plots.frames._frame_title(_FakeTrajectory(), 1, np.zeros(16, bool))
+    monkeypatch.setattr(trajectory, "open_trajectory", lambda p: FakeTrajectory())
+    title = plots.frames._frame_title(FakeTrajectory(), 1, np.zeros(16, bool))
     assert rf"t = 2.5 {plots.TIME_UNIT}" in title and r"$\eta$ = 0.05 $F$" in title and r"0.03 $\mu F$" in title
     paths = plots.snapshot_run(tmp_path / "trajectory.h5", 1)
     assert all(p.exists() for p in paths)
@@ -488,9 +473,9 @@ def test_movie_frames_are_whole_macro_blocks(tmp_path, monkeypatch, caplog):
 
     import fcsweep.io.trajectory as trajectory
 
-    monkeypatch.setattr(trajectory, "open_trajectory", lambda p: _FakeTrajectory())
+    monkeypatch.setattr(trajectory, "open_trajectory", lambda p: FakeTrajectory())
     for dpi in (97, 120):  # 120 dpi gave 852 x 683 before
-        art = plots.FrameArtist(_FakeTrajectory().box, width=plots.SLIDE, dpi=dpi, style=plots.SLIDE_STYLE)
+        art = plots.FrameArtist(FakeTrajectory().box, width=plots.SLIDE, dpi=dpi, style=plots.SLIDE_STYLE)
         h, w, _ = art.rgb().shape
         assert h % 16 == 0 and w % 16 == 0
     with caplog.at_level("WARNING"):

@@ -13,6 +13,7 @@ import time
 
 import numpy as np
 import pytest
+from fake_trajectory import FakeTrajectory
 
 
 def _python(code: str, env=None) -> str:
@@ -143,22 +144,9 @@ def test_a_cold_parallel_compile_leaves_nothing_for_the_demo_to_compile(tmp_path
             assert len(list(index[k].parent.glob(index[k].name.replace(".nbi", ".*.nbc")))) == 1, k
 
 
-class _Frames:
+def _Frames(n_frames=12):
     """The parts of a trajectory that movie frames read: 16 cells drifting, one defect."""
-
-    def __init__(self, n_frames=12):
-        from fcsweep.model.lattice import hexagonal_lattice
-
-        self.pos, self.box = hexagonal_lattice(16)
-        self.params = {"run_id": "abc", "eta": 0.05, "v0": 0.03, "R0": 1.0}
-        self.time = np.arange(n_frames) * 2.5
-        self.n_frames = n_frames
-        self.fields = {"position", "theta"}
-
-    def read(self, name, frames):
-        if name == "position":
-            return np.stack([self.pos + 0.05 * k for k in frames])
-        return np.zeros((len(frames), len(self.pos)))
+    return FakeTrajectory(n_frames, step=0.05)
 
 
 def _render(traj, blit: bool, frames=None):

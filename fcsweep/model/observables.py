@@ -119,7 +119,7 @@ OBSERVABLES: dict[str, Observable] = {o.name: o for o in (
     _O("phase_confidence", "run", "probability of the most probable phase given the errors"),
     _O("percolated_confidence", "run", "probability of the most probable percolation label"),
     _O("q_bias_low", "run", "smallest measured systematic offset of <q> for the run's contour rule and dt "
-                            "(fcsweep.model.systematics; NaN: not measured)"),
+                            "(fcsweep.model.systematics; -inf: not measured)"),
     _O("q_bias_high", "run", "largest measured systematic offset of <q> for the run's contour rule and dt"),
     _O("d_bias_low", "run", "smallest measured relative systematic offset of D for the run's contour rule and dt"),
     _O("d_bias_high", "run", "largest measured relative systematic offset of D for the run's contour rule and dt"),
