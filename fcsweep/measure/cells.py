@@ -37,11 +37,14 @@ absorbs the offset of the centroid from the centre of the polar curve.
 
 from __future__ import annotations
 
-import contourpy
+import functools
+
 import numpy as np
 from scipy import ndimage
 
-from fcsweep.measure.perimeter import blurred_line, blurred_perimeter, edge_band, mismatch, polygon_perimeter
+from fcsweep.measure.perimeter import (blurred_line, blurred_perimeter, closes, contour_lines, edge_band, mismatch,
+                                      padded, polygon_perimeter)
+from fcsweep.measure.runs import pieces_and_fit, radius_fit
 
 __all__ = ["measure_cells", "CELL_FIELDS", "fit_radius", "STAR_TOLERANCE", "FIT_POINTS", "SHAPE_FLAGS",
            "ESTIMATORS", "MIN_AREA_PX", "MIN_INSCRIBED_RADIUS_PX", "Q_ERR_COEF", "PARAMETER_COST",
@@ -92,39 +95,35 @@ def fit_radius(x: np.ndarray, y: np.ndarray, modes: int):
     star_shaped : bool
         The contour's polar angle turns back by less than :data:`STAR_TOLERANCE`.
     """
-    phi = np.arctan2(y, x)
-    r = np.hypot(x, y)
-    dphi = np.angle(np.exp(1j * np.diff(np.append(phi, phi[0]))))
-    turn = dphi.sum()
-    back = -np.minimum(np.sign(turn) * dphi, 0.0).sum()
-    star = bool(abs(abs(turn) - 2 * np.pi) < 1e-6 and back < STAR_TOLERANCE)
-    n_par = 2 * modes + 1
-    if x.size < n_par + 2:
-        return np.full(n_par, np.nan), np.nan, np.nan, star
-    seg = np.hypot(np.diff(np.append(x, x[0])), np.diff(np.append(y, y[0])))
-    w = np.sqrt(0.5 * (seg + np.roll(seg, 1)))
-    n = np.arange(1, modes + 1)
-    cols = [np.ones_like(phi)]
-    for k in n:
-        cols += [np.cos(k * phi), np.sin(k * phi)]
-    design = np.stack(cols, axis=1)
-    coef = np.linalg.lstsq(design * w[:, None], r * w, rcond=None)[0]
+    ct, st = _fit_tables(modes)
+    coef, perim, area, star = radius_fit(np.ascontiguousarray(x, dtype=np.float64),
+                                         np.ascontiguousarray(y, dtype=np.float64), int(modes), STAR_TOLERANCE, ct, st)
+    return coef, float(perim), float(area), bool(star)
+
+
+@functools.lru_cache(maxsize=8)
+def _fit_tables(modes: int):
+    """cos(n t), sin(n t) for n = 1..M at the :data:`FIT_POINTS` points t of one turn."""
     t = 2 * np.pi * np.arange(FIT_POINTS) / FIT_POINTS
-    A, B = coef[1::2], coef[2::2]
+    n = np.arange(1, modes + 1)
+    return np.cos(np.outer(n, t)), np.sin(np.outer(n, t))
+
+
+@functools.lru_cache(maxsize=8)
+def _curve_tables(modes: int, points: int):
+    """cos(n t), sin(n t) for n = 0..M (row 0: cos t, sin t) at ``points`` points t of one turn."""
+    t = np.linspace(0, 2 * np.pi, points, endpoint=False)
+    n = np.arange(1, modes + 1)
     ct, st = np.cos(np.outer(n, t)), np.sin(np.outer(n, t))
-    R = coef[0] + A @ ct + B @ st
-    dR = (B * n) @ ct - (A * n) @ st
-    h = 2 * np.pi / FIT_POINTS
-    return coef, float(np.sqrt(R * R + dR * dR).sum() * h), float(0.5 * (R * R).sum() * h), star
+    return np.vstack([np.cos(t), ct]), np.vstack([np.sin(t), st])
 
 
 def _outline(mask: np.ndarray):
     """Marching-squares lines of a padded binary mask at 1/2, longest first, open (end != start)."""
-    gen = contourpy.contour_generator(z=mask.astype(np.float64), line_type="Separate")
     lines = []
-    for ln in gen.lines(0.5):
+    for ln in contour_lines(np.asarray(mask, dtype=np.float64), 0.5):
         ln = np.asarray(ln, dtype=float)
-        if ln.shape[0] > 1 and np.allclose(ln[0], ln[-1]):
+        if ln.shape[0] > 1 and closes(ln):
             ln = ln[:-1]
         lines.append(ln)
     lines.sort(key=lambda ln: -ln.shape[0])
@@ -148,9 +147,10 @@ _DISC = np.hypot(*np.mgrid[-2:3, -2:3]) <= MIN_INSCRIBED_RADIUS_PX
 def _unmeasurable(mask: np.ndarray) -> int:
     """0, or the :data:`SHAPE_FLAGS` code of a split label or a sliver (no disc of radius
     :data:`MIN_INSCRIBED_RADIUS_PX` fits: the mask's erosion by it is empty)."""
-    if ndimage.label(mask, structure=np.ones((3, 3), dtype=bool))[1] > 1:
+    split, fits = pieces_and_fit(mask, _DISC)
+    if split:
         return 2
-    if mask.sum() < MIN_AREA_PX or not ndimage.binary_erosion(np.pad(mask, 3), _DISC).any():
+    if mask.sum() < MIN_AREA_PX or not fits:
         return 3
     return 0
 
@@ -200,7 +200,7 @@ def measure_cells(frame: np.ndarray, pixel_size=(1.0, 1.0), modes: int = 6, slic
         cut = sr.start == 0 or sc.start == 0 or sr.stop == ny or sc.stop == nx
         out["edge_cut"][c] = cut
         flag = 1 if cut else _unmeasurable(mask)
-        lines = _outline(np.pad(mask, 1)) if not flag else []
+        lines = _outline(padded(mask, 1, np.float64)) if not flag else []
         blurred = blurred_line(mask) if lines else None
         if not flag and (not lines or blurred is None):
             flag = 4
@@ -243,15 +243,14 @@ def _choose(mask, blurred, coef, perim, star, centre, scale):
     if fit_ok and mask.sum() < np.pi * POLYGON_MIN_RADIUS_PX ** 2:
         return 1, perim
     p_poly, verts = polygon_perimeter(blurred, mask, scale)
-    padded = np.pad(mask, 1)
     if fit_ok and len(verts) >= 3:
-        t = np.linspace(0, 2 * np.pi, 128, endpoint=False)
-        k = np.arange(1, (coef.size - 1) // 2 + 1)
-        R = coef[0] + coef[1::2] @ np.cos(np.outer(k, t)) + coef[2::2] @ np.sin(np.outer(k, t))
-        curve = np.stack([centre[0] + R * np.cos(t) / scale[0], centre[1] + R * np.sin(t) / scale[1]], 1)
-        band = edge_band(padded)
-        fit_ok = (mismatch(padded, curve + 1, band) + PARAMETER_COST * coef.size
-                  <= mismatch(padded, verts + 1, band) + PARAMETER_COST * 2 * len(verts))
+        pad = padded(mask, 1)
+        ct, st = _curve_tables((coef.size - 1) // 2, 128)
+        R = coef[0] + coef[1::2] @ ct[1:] + coef[2::2] @ st[1:]
+        curve = np.stack([centre[0] + R * ct[0] / scale[0], centre[1] + R * st[0] / scale[1]], 1)
+        band = edge_band(pad)
+        fit_ok = (mismatch(pad, curve + 1, band) + PARAMETER_COST * coef.size
+                  <= mismatch(pad, verts + 1, band) + PARAMETER_COST * 2 * len(verts))
     if fit_ok:
         return 1, perim
     if len(verts) >= 3:

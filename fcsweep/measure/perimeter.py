@@ -26,14 +26,17 @@ exact answers in docs/measure.md, "How q is measured"):
 
 from __future__ import annotations
 
+import functools
+
 import contourpy
 import numpy as np
 from scipy import ndimage
 
-from fcsweep.measure.runs import ORIENTATIONS, count_outside, digital_runs
+from fcsweep.measure.runs import ORIENTATIONS, count_outside, digital_runs, edge_pixels, mixed_pixels, run_polygon
 
-__all__ = ["blurred_line", "polygon_perimeter", "blurred_perimeter", "closed_length", "mismatch", "edge_band", "BLUR",
-           "STEP", "MIN_RUN", "MIN_CORNER_SINE", "MAX_CORNER_SHIFT", "CORNER_TOLERANCE"]
+__all__ = ["blurred_line", "contour_lines", "polygon_perimeter", "blurred_perimeter", "closed_length", "closes",
+           "padded", "mismatch", "edge_band", "BLUR", "STEP",
+           "MIN_RUN", "MIN_CORNER_SINE", "MAX_CORNER_SHIFT", "CORNER_TOLERANCE"]
 
 #: Standard deviation (pixels) of the Gaussian blur of the mask before its sub-pixel outline is traced.
 BLUR = 1.0
@@ -50,22 +53,36 @@ MAX_CORNER_SHIFT = 3.0
 CORNER_TOLERANCE = 0.15
 
 
-def _covers(a, b, c, pts) -> bool:
-    """Whether the triangle a, b, c (a -> b and b -> c along the two lines, a, c on the outline)
-    holds any of the points ``pts`` farther than :data:`CORNER_TOLERANCE` px inside its sides a-b
-    and b-c: a sharpened corner that takes in pixel centres outside the cell is a rounded one."""
-    reach = max(np.hypot(*(b - a)), np.hypot(*(b - c))) + 1.0
-    pts = pts[np.abs(pts - b).max(axis=1) <= reach]
-    if not len(pts):
-        return False
-    def side(p0, p1):
-        e = p1 - p0
-        return (e[0] * (pts[:, 1] - p0[1]) - e[1] * (pts[:, 0] - p0[0])) / max(np.hypot(e[0], e[1]), 1e-12)
+@functools.lru_cache(maxsize=256)
+def _grid(ny: int, nx: int):
+    x, y = np.meshgrid(np.arange(nx, dtype=np.float64), np.arange(ny, dtype=np.float64))
+    x.flags.writeable = y.flags.writeable = False
+    return x, y
 
-    s1, s2, s3 = side(a, b), side(b, c), side(c, a)
-    orient = np.sign((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])) or 1.0
-    s1, s2, s3 = orient * s1, orient * s2, orient * s3
-    return bool(np.any((s1 > CORNER_TOLERANCE) & (s2 > CORNER_TOLERANCE) & (s3 > 0)))
+
+def contour_lines(z: np.ndarray, level: float) -> list:
+    """The lines of ``z`` (2-D float64, no NaN) at ``level``, pixel ``(r, c)`` at ``(c, r)``: what
+    ``contourpy.contour_generator(z=z, line_type="Separate").lines(level)`` returns, without its
+    masked-array checks and grid set-up (the per-call cost of small cells)."""
+    x, y = _grid(*z.shape)
+    gen = contourpy.SerialContourGenerator(
+        x, y, z, None, corner_mask=True, line_type=contourpy.LineType.Separate,
+        fill_type=contourpy.SerialContourGenerator.default_fill_type, quad_as_tri=False,
+        z_interp=contourpy.ZInterp.Linear, x_chunk_size=0, y_chunk_size=0)
+    return gen.lines(level)
+
+
+def padded(mask: np.ndarray, width: int, dtype=bool) -> np.ndarray:
+    """``np.pad(mask, width).astype(dtype)``, made in one step."""
+    out = np.zeros((mask.shape[0] + 2 * width, mask.shape[1] + 2 * width), dtype=dtype)
+    out[width:-width, width:-width] = mask
+    return out
+
+
+def closes(line: np.ndarray) -> bool:
+    """Whether the line's last point repeats its first (``np.allclose`` of the two)."""
+    (x0, y0), (x1, y1) = line[0], line[-1]
+    return abs(x0 - x1) <= 1e-8 + 1e-5 * abs(x1) and abs(y0 - y1) <= 1e-8 + 1e-5 * abs(y1)
 
 
 def closed_length(pts: np.ndarray) -> float:
@@ -78,12 +95,12 @@ def blurred_line(mask: np.ndarray, blur: float = BLUR):
     """The outer 1/2 line of the blurred mask, in the mask's pixel coordinates (pixel ``(r, c)``
     at ``(c, r)``), open (end != start); None if the blurred mask never reaches 1/2."""
     pad = int(np.ceil(4 * blur)) + 1
-    z = ndimage.gaussian_filter(np.pad(mask, pad).astype(np.float64), blur, mode="constant", truncate=4.0)
-    lines = contourpy.contour_generator(z=z, line_type="Separate").lines(0.5)
+    z = ndimage.gaussian_filter(padded(mask, pad, np.float64), blur, mode="constant", truncate=4.0)
+    lines = contour_lines(z, 0.5)
     if not lines:
         return None
     line = max(lines, key=len)
-    if line.shape[0] > 1 and np.allclose(line[0], line[-1]):
+    if line.shape[0] > 1 and closes(line):
         line = line[:-1]
     return line - pad if line.shape[0] >= 3 else None
 
@@ -108,31 +125,6 @@ def blurred_perimeter(line: np.ndarray, blur: float = BLUR, scale=(1.0, 1.0)) ->
     k = ndimage.gaussian_filter1d(turn / h, 0.5 * blur / h, mode="wrap")
     corr = 0.5 * blur * blur * float(np.sum(k * k)) * h
     return closed_length(line * np.asarray(scale, dtype=float)) + corr * float(np.sqrt(scale[0] * scale[1]))
-
-
-def _edge_pixels(mask: np.ndarray, p: np.ndarray):
-    """The pixel centres of the mask with a 4-neighbour outside it and those outside with a
-    4-neighbour in it, each with the index of its nearest point of ``p``."""
-    from scipy.spatial import cKDTree
-
-    m = np.pad(mask, 2)
-    core = m[1:-1, 1:-1]
-    up, down, left, right = m[:-2, 1:-1], m[2:, 1:-1], m[1:-1, :-2], m[1:-1, 2:]
-    tree = cKDTree(p)
-    out = []
-    for sel in (core & ~(up & down & left & right), ~core & (up | down | left | right)):
-        pts = np.argwhere(sel)[:, ::-1].astype(float) - 1.0
-        out.append((pts, tree.query(pts)[1]))
-    return out
-
-
-def _line(q: np.ndarray):
-    """Centre and unit direction of the total-least-squares line through the points ``q``."""
-    c = q.sum(0) / len(q)
-    d = q - c
-    sxx, syy, sxy = d[:, 0] @ d[:, 0], d[:, 1] @ d[:, 1], d[:, 0] @ d[:, 1]
-    th = 0.5 * np.arctan2(2 * sxy, sxx - syy)
-    return c, np.array([np.cos(th), np.sin(th)])
 
 
 def polygon_perimeter(line: np.ndarray, mask: np.ndarray, scale=(1.0, 1.0)):
@@ -165,45 +157,22 @@ def polygon_perimeter(line: np.ndarray, mask: np.ndarray, scale=(1.0, 1.0)):
     """
     p, h = _resample(line, STEP)
     n = len(p)
-    (inner, at_in), (outer, at_out) = _edge_pixels(mask, p)
+    pts, side, at = edge_pixels(mask, p)
     e = np.roll(p, -1, 0) - p
     ang = np.arctan2(e[:, 1], e[:, 0])
     turn = np.abs(ndimage.gaussian_filter1d(np.angle(np.exp(1j * (np.roll(ang, -1) - ang))), 0.5 / h, mode="wrap"))
     start = int(np.argmax(turn))
-
-    pts = np.concatenate([inner, outer])
-    at = np.concatenate([at_in, at_out]).astype(np.int64)
-    side = np.concatenate([np.ones(len(inner), bool), np.zeros(len(outer), bool)])
     order = np.argsort(at, kind="stable")
-    t0s, lengths, ok, normal, offset = digital_runs(np.ascontiguousarray(pts[order]), side[order], at[order], n,
-                                                    start, max(int(MIN_RUN / h), 2), ORIENTATIONS)
-    runs = []
-    for t0, length, good, nrm, off in zip(t0s, lengths, ok, normal, offset):
-        c, u = _line(p[np.arange(t0, t0 + length + 1) % n])
-        if good:
-            c, u = c - (nrm @ c - off) * nrm, np.array([nrm[1], -nrm[0]])
-        runs.append((int(t0), c, u))
-    verts = []
-    for j in range(len(runs)):
-        _, c1, d1 = runs[j - 1]
-        t2, c2, d2 = runs[j]
-        x = p[t2 % n]
-        det = d2[0] * d1[1] - d1[0] * d2[1]
-        if abs(det) > MIN_CORNER_SINE:
-            w = c2 - c1
-            corner = c1 + d1 * ((w[1] * d2[0] - w[0] * d2[1]) / det)
-            a, b = c1 + d1 * ((x - c1) @ d1), c2 + d2 * ((x - c2) @ d2)
-            if np.hypot(*(corner - x)) < MAX_CORNER_SHIFT and not _covers(a, corner, b, outer):
-                x = corner
-        verts.append(x)
-    verts = np.asarray(verts)
+    pts, side, at = np.ascontiguousarray(pts[order]), side[order], at[order]
+    t0s, lengths, ok, normal, offset = digital_runs(pts, side, at, n, start, max(int(MIN_RUN / h), 2), ORIENTATIONS)
+    verts = run_polygon(p, pts, side, t0s, lengths, ok, normal, offset, MIN_CORNER_SINE, MAX_CORNER_SHIFT,
+                        CORNER_TOLERANCE)
     return closed_length(verts * np.asarray(scale, dtype=float)), verts
 
 
 def edge_band(mask: np.ndarray):
     """(rows, cols) of the pixels within 2 px (a 5 x 5 square) of the mask's edge."""
-    share = ndimage.uniform_filter(mask.astype(np.float32), 5, mode="constant")
-    return np.nonzero((share > 0.01) & (share < 0.99))
+    return mixed_pixels(np.ascontiguousarray(mask, dtype=bool), 2)
 
 
 def mismatch(mask: np.ndarray, outline: np.ndarray, band=None) -> int:

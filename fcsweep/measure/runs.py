@@ -15,7 +15,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-__all__ = ["digital_runs", "count_outside", "ORIENTATIONS"]
+__all__ = ["digital_runs", "count_outside", "edge_pixels", "run_polygon", "radius_fit", "ORIENTATIONS"]
 
 #: Directions (over 180 degrees) on which a run's boundary pixels are tested for a separating line.
 ORIENTATIONS = 180
@@ -205,20 +205,323 @@ def digital_runs(pts, side, at, n, start, first, orientations):
 @numba.njit(cache=True, error_model="numpy")
 def count_outside(px, py, inside, poly):
     """Pixels (px, py) whose side of the closed polygon ``poly`` (V, 2), by the even-odd rule,
-    differs from ``inside``."""
+    differs from ``inside``.  The crossings of a row are found once for a run of pixels on it
+    (pixels given row by row cost the rows times the vertices plus the pixels times the
+    crossings)."""
     count = 0
     V = poly.shape[0]
+    xcs = np.empty(V)
+    m = 0
+    row = np.nan
     for k in range(px.size):
         x, y = px[k], py[k]
+        if y != row:
+            row = y
+            m = 0
+            j = V - 1
+            for i in range(V):
+                yi, yj = poly[i, 1], poly[j, 1]
+                if (yi > y) != (yj > y):
+                    xcs[m] = poly[i, 0] + (y - yi) * (poly[j, 0] - poly[i, 0]) / (yj - yi)
+                    m += 1
+                j = i
         c = False
-        j = V - 1
-        for i in range(V):
-            yi, yj = poly[i, 1], poly[j, 1]
-            if (yi > y) != (yj > y):
-                xc = poly[i, 0] + (y - yi) * (poly[j, 0] - poly[i, 0]) / (yj - yi)
-                if x < xc:
-                    c = not c
-            j = i
+        for i in range(m):
+            if x < xcs[i]:
+                c = not c
         if c != inside[k]:
             count += 1
     return count
+
+
+@numba.njit(cache=True, error_model="numpy")
+def edge_pixels(mask, p):
+    """The boundary pixel centres of a cell, attached to the outline: ``(pts, side, at)``.
+
+    ``pts`` (N, 2) holds the centres of the mask's pixels with a 4-neighbour outside it (row
+    by row, ``side`` True), then those outside it with a 4-neighbour in it (``side`` False),
+    pixel ``(r, c)`` at ``(c, r)``; ``at`` is the index of the nearest point of ``p`` (K, 2),
+    the lowest index on a tie."""
+    H, W = mask.shape
+    # nearest sample of every pixel centre within 3 px of one (pixel (r, c) of the mask at [r + 1, c + 1])
+    best = np.full((H + 2, W + 2), np.inf)
+    idx = np.full((H + 2, W + 2), -1, np.int64)
+    for s in range(p.shape[0]):
+        x, y = p[s, 0], p[s, 1]
+        c0, c1 = max(int(np.ceil(x - 3.0)), -1), min(int(np.floor(x + 3.0)), W)
+        r0, r1 = max(int(np.ceil(y - 3.0)), -1), min(int(np.floor(y + 3.0)), H)
+        for r in range(r0, r1 + 1):
+            for c in range(c0, c1 + 1):
+                d = (c - x) ** 2 + (r - y) ** 2
+                if d < best[r + 1, c + 1]:
+                    best[r + 1, c + 1] = d
+                    idx[r + 1, c + 1] = s
+    n_in = 0
+    n_out = 0
+    kind = np.zeros((H + 2, W + 2), np.int8)
+    for r in range(-1, H + 1):
+        for c in range(-1, W + 1):
+            here = 0 <= r < H and 0 <= c < W and mask[r, c]
+            nb_in = False
+            nb_out = False
+            for dr, dc in ((-1, 0), (1, 0), (0, -1), (0, 1)):
+                rr, cc = r + dr, c + dc
+                v = 0 <= rr < H and 0 <= cc < W and mask[rr, cc]
+                nb_in = nb_in or v
+                nb_out = nb_out or not v
+            if here and nb_out:
+                kind[r + 1, c + 1] = 1
+                n_in += 1
+            elif not here and nb_in:
+                kind[r + 1, c + 1] = 2
+                n_out += 1
+    pts = np.empty((n_in + n_out, 2))
+    side = np.empty(n_in + n_out, np.bool_)
+    at = np.empty(n_in + n_out, np.int64)
+    k_in = 0
+    k_out = n_in
+    for r in range(-1, H + 1):
+        for c in range(-1, W + 1):
+            kd = kind[r + 1, c + 1]
+            if kd == 0:
+                continue
+            k = k_in if kd == 1 else k_out
+            pts[k, 0], pts[k, 1], side[k] = c, r, kd == 1
+            s = idx[r + 1, c + 1]
+            if s < 0 or best[r + 1, c + 1] > 9.0:  # no sample within 3 px: all of them
+                bd = np.inf
+                for q in range(p.shape[0]):
+                    d = (c - p[q, 0]) ** 2 + (r - p[q, 1]) ** 2
+                    if d < bd:
+                        bd, s = d, q
+            at[k] = s
+            if kd == 1:
+                k_in += 1
+            else:
+                k_out += 1
+    return pts, side, at
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _tls_line(p, t0, length):
+    """Centre and unit direction of the total-least-squares line through p[t0 .. t0 + length] (cyclic)."""
+    n = p.shape[0]
+    cx = 0.0
+    cy = 0.0
+    for j in range(length + 1):
+        k = (t0 + j) % n
+        cx += p[k, 0]
+        cy += p[k, 1]
+    cx /= length + 1
+    cy /= length + 1
+    sxx = 0.0
+    syy = 0.0
+    sxy = 0.0
+    for j in range(length + 1):
+        k = (t0 + j) % n
+        dx, dy = p[k, 0] - cx, p[k, 1] - cy
+        sxx += dx * dx
+        syy += dy * dy
+        sxy += dx * dy
+    th = 0.5 * np.arctan2(2 * sxy, sxx - syy)
+    return cx, cy, np.cos(th), np.sin(th)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _covers(ax, ay, bx, by, cx, cy, pts, side, tol):
+    """Whether the triangle a, b, c holds a point of ``pts`` outside the cell (``side`` False)
+    farther than ``tol`` inside its sides a-b and b-c (and inside c-a)."""
+    reach = max(np.hypot(bx - ax, by - ay), np.hypot(bx - cx, by - cy)) + 1.0
+    o = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+    orient = -1.0 if o < 0 else 1.0
+    l1 = max(np.hypot(bx - ax, by - ay), 1e-12)
+    l2 = max(np.hypot(cx - bx, cy - by), 1e-12)
+    l3 = max(np.hypot(ax - cx, ay - cy), 1e-12)
+    for k in range(pts.shape[0]):
+        if side[k]:
+            continue
+        x, y = pts[k, 0], pts[k, 1]
+        if max(abs(x - bx), abs(y - by)) > reach:
+            continue
+        s1 = orient * ((bx - ax) * (y - ay) - (by - ay) * (x - ax)) / l1
+        s2 = orient * ((cx - bx) * (y - by) - (cy - by) * (x - bx)) / l2
+        s3 = orient * ((ax - cx) * (y - cy) - (ay - cy) * (x - cx)) / l3
+        if s1 > tol and s2 > tol and s3 > 0:
+            return True
+    return False
+
+
+@numba.njit(cache=True, error_model="numpy")
+def run_polygon(p, pts, side, t0s, lengths, ok, normal, offset, min_sine, max_shift, tol):
+    """Vertices (V, 2) of the polygon of the runs of :func:`digital_runs` on the outline ``p``:
+    each run's line is its widest-margin line where ``ok`` (else the total-least-squares line
+    of its outline points), consecutive lines meet at their intersection where they turn by a
+    sine above ``min_sine``, the intersection lies within ``max_shift`` of the outline point
+    between them and its corner takes in no pixel centre outside the cell (``pts`` with
+    ``side`` False) farther than ``tol`` inside; else that outline point is the vertex."""
+    n = p.shape[0]
+    R = t0s.size
+    lc = np.empty((R, 2))
+    ld = np.empty((R, 2))
+    for j in range(R):
+        cx, cy, ux, uy = _tls_line(p, t0s[j], lengths[j])
+        if ok[j]:
+            nx, ny = normal[j, 0], normal[j, 1]
+            sh = nx * cx + ny * cy - offset[j]
+            cx, cy, ux, uy = cx - sh * nx, cy - sh * ny, ny, -nx
+        lc[j, 0], lc[j, 1], ld[j, 0], ld[j, 1] = cx, cy, ux, uy
+    verts = np.empty((R, 2))
+    for j in range(R):
+        i = j - 1 if j > 0 else R - 1
+        c1x, c1y, d1x, d1y = lc[i, 0], lc[i, 1], ld[i, 0], ld[i, 1]
+        c2x, c2y, d2x, d2y = lc[j, 0], lc[j, 1], ld[j, 0], ld[j, 1]
+        x, y = p[t0s[j] % n, 0], p[t0s[j] % n, 1]
+        det = d2x * d1y - d1x * d2y
+        if abs(det) > min_sine:
+            wx, wy = c2x - c1x, c2y - c1y
+            f = (wy * d2x - wx * d2y) / det
+            kx, ky = c1x + d1x * f, c1y + d1y * f
+            f1 = (x - c1x) * d1x + (y - c1y) * d1y
+            f2 = (x - c2x) * d2x + (y - c2y) * d2y
+            if np.hypot(kx - x, ky - y) < max_shift and not _covers(
+                    c1x + d1x * f1, c1y + d1y * f1, kx, ky, c2x + d2x * f2, c2y + d2y * f2, pts, side, tol):
+                x, y = kx, ky
+        verts[j, 0], verts[j, 1] = x, y
+    return verts
+
+
+@numba.njit(cache=True, error_model="numpy")
+def radius_fit(x, y, modes, star_tolerance, ct, st):
+    """The weighted least-squares fit of ``R(phi)`` of :func:`fcsweep.measure.cells.fit_radius`:
+    ``(coef, perimeter, area, star)``, the fitted curve evaluated through ``ct[n - 1, i] =
+    cos(n t_i)``, ``st`` likewise, at equally spaced ``t_i`` over one turn."""
+    K = x.size
+    phi = np.arctan2(y, x)
+    r = np.hypot(x, y)
+    turn = 0.0
+    dphi = np.empty(K)
+    for i in range(K):
+        d = phi[(i + 1) % K] - phi[i]
+        dphi[i] = np.arctan2(np.sin(d), np.cos(d))
+        turn += dphi[i]
+    sgn = 1.0 if turn > 0 else (-1.0 if turn < 0 else 0.0)
+    back = 0.0
+    for i in range(K):
+        back -= min(sgn * dphi[i], 0.0)
+    star = abs(abs(turn) - 2 * np.pi) < 1e-6 and back < star_tolerance
+    n_par = 2 * modes + 1
+    coef = np.full(n_par, np.nan)
+    if K < n_par + 2:
+        return coef, np.nan, np.nan, star
+    seg = np.empty(K)
+    for i in range(K):
+        j = (i + 1) % K
+        seg[i] = np.hypot(x[j] - x[i], y[j] - y[i])
+    design = np.empty((K, n_par))
+    rhs = np.empty(K)
+    for i in range(K):
+        w = np.sqrt(0.5 * (seg[i] + seg[i - 1]))
+        design[i, 0] = w
+        for k in range(1, modes + 1):
+            design[i, 2 * k - 1] = np.cos(k * phi[i]) * w
+            design[i, 2 * k] = np.sin(k * phi[i]) * w
+        rhs[i] = r[i] * w
+    coef = np.linalg.lstsq(design, rhs)[0]
+    T = ct.shape[1]
+    h = 2 * np.pi / T
+    perim = 0.0
+    area = 0.0
+    for i in range(T):
+        R = coef[0]
+        dR = 0.0
+        for k in range(1, modes + 1):
+            A, B = coef[2 * k - 1], coef[2 * k]
+            R += A * ct[k - 1, i] + B * st[k - 1, i]
+            dR += k * (B * ct[k - 1, i] - A * st[k - 1, i])
+        perim += np.sqrt(R * R + dR * dR)
+        area += R * R
+    return coef, perim * h, 0.5 * area * h, star
+
+
+@numba.njit(cache=True, error_model="numpy")
+def mixed_pixels(mask, half):
+    """(rows, cols) of the pixels of ``mask`` whose (2 half + 1)-square about them (zero outside
+    the array) holds pixels both in and out of the mask, row by row."""
+    H, W = mask.shape
+    S = np.zeros((H + 1, W + 1), np.int64)
+    for r in range(H):
+        for c in range(W):
+            S[r + 1, c + 1] = S[r, c + 1] + S[r + 1, c] - S[r, c] + (1 if mask[r, c] else 0)
+    full = (2 * half + 1) ** 2
+    sel = np.zeros((H, W), np.bool_)
+    m = 0
+    for r in range(H):
+        r0, r1 = max(r - half, 0), min(r + half + 1, H)
+        for c in range(W):
+            c0, c1 = max(c - half, 0), min(c + half + 1, W)
+            k = S[r1, c1] - S[r0, c1] - S[r1, c0] + S[r0, c0]
+            if 0 < k < full:
+                sel[r, c] = True
+                m += 1
+    rows = np.empty(m, np.int64)
+    cols = np.empty(m, np.int64)
+    m = 0
+    for r in range(H):
+        for c in range(W):
+            if sel[r, c]:
+                rows[m], cols[m] = r, c
+                m += 1
+    return rows, cols
+
+
+@numba.njit(cache=True, error_model="numpy")
+def pieces_and_fit(mask, disc):
+    """``(pieces, fits)``: whether the mask's pixels form more than one 8-connected piece, and
+    whether the structuring element ``disc`` (odd square, centred) fits inside the mask."""
+    H, W = mask.shape
+    seen = np.zeros((H, W), np.bool_)
+    stack = np.empty(H * W, np.int64)
+    pieces = 0
+    for r in range(H):
+        for c in range(W):
+            if not mask[r, c] or seen[r, c]:
+                continue
+            pieces += 1
+            if pieces > 1:
+                break
+            seen[r, c] = True
+            top = 0
+            stack[0] = r * W + c
+            top = 1
+            while top:
+                top -= 1
+                rr, cc = divmod(stack[top], W)
+                for dr in range(-1, 2):
+                    for dc in range(-1, 2):
+                        r2, c2 = rr + dr, cc + dc
+                        if 0 <= r2 < H and 0 <= c2 < W and mask[r2, c2] and not seen[r2, c2]:
+                            seen[r2, c2] = True
+                            stack[top] = r2 * W + c2
+                            top += 1
+        if pieces > 1:
+            break
+    h = disc.shape[0] // 2
+    fits = False
+    for r in range(h, H - h):
+        for c in range(h, W - h):
+            if not mask[r, c]:
+                continue
+            ok = True
+            for dr in range(-h, h + 1):
+                for dc in range(-h, h + 1):
+                    if disc[dr + h, dc + h] and not mask[r + dr, c + dc]:
+                        ok = False
+                        break
+                if not ok:
+                    break
+            if ok:
+                fits = True
+                break
+        if fits:
+            break
+    return pieces > 1, fits
