@@ -12,7 +12,10 @@ The steps, each on its own frames after the transient:
   correlations from the pair counts or, with ``settings["correlations"] == "fft"``, by FFT
   on a grid (:func:`fcsweep.analysis.correlation_fft.pipeline_spacing`);
 - MSD, D_eff and cage breaking over the equilibrated frames (:func:`diffusion_observables`);
-- the phase and percolation labels with their confidence (:func:`label_observables`).
+- the phase and percolation labels with their confidence (:func:`label_observables`);
+- on a periodic coexistence start (``initial: coexistence``), the crystal fraction of the
+  structure frames on their tessellations and the ``phase_coexistence`` label
+  (:func:`fcsweep.analysis.crystal.coexistence_observables`; NaN for other starts).
 
 A confined run (``boundary`` ``well`` or ``channel``, :func:`run_confinement`) takes the
 same steps with the walls (:mod:`fcsweep.analysis.confined`): defects, clusters and |Psi6|
@@ -30,6 +33,7 @@ from typing import Mapping
 import numpy as np
 
 from fcsweep.analysis import cage, confined, diffusion, shapes, voronoi
+from fcsweep.analysis.crystal import COEXISTENCE_SCALARS, coexistence_observables, crystalline
 from fcsweep.analysis.frames import as_source
 from fcsweep.analysis.msd import frame_drift, log_lag_indices, msd_curve_streamed
 from fcsweep.analysis.phase import classify_percolation, phase_evidence, phase_label, solid_kind
@@ -168,6 +172,8 @@ def compute_observables(run: RunFrames, settings: Mapping, *, curves: bool = Tru
     boxr = run.box / R0  # lengths in units of R0 from here on
     pos = as_source(run.positions).scaled(R0)
     conf = run_confinement(run)
+    coexistence = conf is None and str(run.params.get("initial", "")) == "coexistence"
+    crystal = []  # crystal fraction of each structure frame of a coexistence start
     sc, cv, q_start = shape_observables(run, settings)
     sf = plan.structure_frames
     radii = None if run.radii is None else np.asarray(run.radii, dtype=float) / R0
@@ -178,6 +184,8 @@ def compute_observables(run: RunFrames, settings: Mapping, *, curves: bool = Tru
         except ValueError as exc:  # an unknown correlations method
             raise AnalysisError(str(exc)) from None
         each = (lambda k, vn: acc.add(sf[k], pos[k], vn)) if (psi6 or curves) else None  # G6, G_r need Psi6
+        if coexistence:
+            each = _with_crystal(each, pos, boxr, radii, crystal)
         s2, c2, ds = structure_observables(pos, boxr, sf, each=each, radii=radii)
         sc.update(s2)
         cv.update(c2)
@@ -202,6 +210,9 @@ def compute_observables(run: RunFrames, settings: Mapping, *, curves: bool = Tru
     sc.update(rule_bias(str(p.get("quadrature", "binary")), int(p.get("contour_points", 40)),
                         float(p.get("dt", CONVERGED_DT)), int(p.get("modes", 6))))
     sc.update(label_observables(sc, est, settings, float(run.params.get("Dr", np.nan))))
+    sc.update(coexistence_observables(run.time[sf] - run.time[0], crystal, boxr, pos.shape[1],
+                                      min_confidence=float(settings["label_confidence"])) if coexistence
+              else dict.fromkeys(COEXISTENCE_SCALARS, np.nan))
     extra = {"n_sides_counts": ds["n_sides_counts"], "frames": plan.frames,
              "structure_frames": plan.structure_frames, "shape_frames": plan.shape_frames}
     return sc, cv, extra
@@ -241,6 +252,16 @@ def shape_observables(run: RunFrames, settings: Mapping):
     else:
         sc.update(q_mean=np.nan, q_mean_err=np.nan, q_frac_above=np.nan, q_frac_above_err=np.nan)
     return sc, cv, start
+
+
+def _with_crystal(each, pos, boxr, radii, out: list):
+    """``each`` of :func:`structure_observables` that also appends each frame's crystal
+    fraction (:func:`fcsweep.analysis.crystal.crystalline`, on the same tessellation) to ``out``."""
+    def both(k, vn):
+        if each is not None:
+            each(k, vn)
+        out.append(float(crystalline(pos[k], boxr, radii, vn).mean()))
+    return both
 
 
 def structure_observables(pos: np.ndarray, boxr: np.ndarray, frames: np.ndarray, each=None, radii=None):

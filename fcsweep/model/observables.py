@@ -179,6 +179,18 @@ OBSERVABLES: dict[str, Observable] = {o.name: o for o in (
                                "length, mean over the equilibrated frames (dimensionless: the wall energy is the "
                                "cells' area beyond the wall; NaN in a periodic box)", replicate=True),
     _O("wall_pressure_err", "run", "1-sigma error of wall_pressure (autocorrelation of the frame series)"),
+    _O("crystal_fraction", "run", "fraction of crystalline cells (six Voronoi neighbours, each with Re(psi6_i "
+                                  "psi6_j*) >= 1/2), mean over the structure frames of a coexistence start (NaN for "
+                                  "other starts)"),
+    _O("crystal_fraction_err", "run", "1-sigma error of crystal_fraction (autocorrelation of the frame series)"),
+    _O("crystal_speed", "run", "interface speed (Ly / 2) d(crystal_fraction)/dt of a coexistence start, R0 per time "
+                               "unit (> 0: the crystal grows; NaN where an end state, melted or filled, decided)"),
+    _O("crystal_speed_err", "run", "1-sigma error of crystal_speed (correlated frames)"),
+    _O("phase_coexistence", "run", "label of a coexistence start from its crystal (fcsweep.analysis.crystal): 0 solid "
+                                   "(the crystal grows, stays or filled the box), 1 not solid (it melts or melted), "
+                                   "2 undetermined, -1 unknown; NaN for other starts"),
+    _O("phase_coexistence_confidence", "run", "probability of phase_coexistence (NaN when too few frames or "
+                                              "effective samples decide nothing)"),
     _O("replicate", "coord", "replicate index (independent noise)"),
     _O("lag_time", "coord", "MSD lag time (model time units)"),
     _O("r", "coord", "pair distance, bin centre (units of R0)"),
