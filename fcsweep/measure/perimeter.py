@@ -32,10 +32,11 @@ import contourpy
 import numpy as np
 from scipy import ndimage
 
-from fcsweep.measure.runs import ORIENTATIONS, count_outside, digital_runs, edge_pixels, mixed_pixels, run_polygon
+from fcsweep.measure.runs import (ORIENTATIONS, blurred_mask, count_outside, digital_runs, edge_pixels, mixed_pixels,
+                                  resample, run_polygon, sharpest_bend)
 
 __all__ = ["blurred_line", "contour_lines", "polygon_perimeter", "blurred_perimeter", "closed_length", "closes",
-           "padded", "mismatch", "edge_band", "BLUR", "STEP",
+           "padded", "gaussian_weights", "mismatch", "edge_band", "BLUR", "STEP",
            "MIN_RUN", "MIN_CORNER_SINE", "MAX_CORNER_SHIFT", "CORNER_TOLERANCE"]
 
 #: Standard deviation (pixels) of the Gaussian blur of the mask before its sub-pixel outline is traced.
@@ -85,6 +86,18 @@ def closes(line: np.ndarray) -> bool:
     return abs(x0 - x1) <= 1e-8 + 1e-5 * abs(x1) and abs(y0 - y1) <= 1e-8 + 1e-5 * abs(y1)
 
 
+@functools.lru_cache(maxsize=64)
+def gaussian_weights(sigma: float, truncate: float = 4.0) -> np.ndarray:
+    """The normalised Gaussian kernel of ``scipy.ndimage.gaussian_filter1d`` (radius ``truncate``
+    sigma, computed as it does), read-only."""
+    radius = int(truncate * sigma + 0.5)
+    x = np.arange(-radius, radius + 1)
+    phi = np.exp(-0.5 / (sigma * sigma) * x ** 2)
+    phi = phi / phi.sum()
+    phi.flags.writeable = False
+    return phi
+
+
 def closed_length(pts: np.ndarray) -> float:
     """Length of the closed polygon ``pts`` (K, 2), not repeated at the end."""
     d = np.diff(pts, axis=0, append=pts[:1])
@@ -95,7 +108,7 @@ def blurred_line(mask: np.ndarray, blur: float = BLUR):
     """The outer 1/2 line of the blurred mask, in the mask's pixel coordinates (pixel ``(r, c)``
     at ``(c, r)``), open (end != start); None if the blurred mask never reaches 1/2."""
     pad = int(np.ceil(4 * blur)) + 1
-    z = ndimage.gaussian_filter(padded(mask, pad, np.float64), blur, mode="constant", truncate=4.0)
+    z = blurred_mask(np.ascontiguousarray(mask, dtype=bool), pad, gaussian_weights(blur))
     lines = contour_lines(z, 0.5)
     if not lines:
         return None
@@ -106,12 +119,7 @@ def blurred_line(mask: np.ndarray, blur: float = BLUR):
 
 
 def _resample(line: np.ndarray, step: float):
-    closed = np.vstack([line, line[:1]])
-    seg = np.hypot(*np.diff(closed, axis=0).T)
-    s = np.concatenate([[0.0], np.cumsum(seg)])
-    n = max(int(np.ceil(s[-1] / step)), 8)
-    t = np.arange(n) * (s[-1] / n)
-    return np.stack([np.interp(t, s, closed[:, 0]), np.interp(t, s, closed[:, 1])], 1), s[-1] / n
+    return resample(np.ascontiguousarray(line, dtype=np.float64), float(step))
 
 
 def blurred_perimeter(line: np.ndarray, blur: float = BLUR, scale=(1.0, 1.0)) -> float:
@@ -157,13 +165,8 @@ def polygon_perimeter(line: np.ndarray, mask: np.ndarray, scale=(1.0, 1.0)):
     """
     p, h = _resample(line, STEP)
     n = len(p)
-    pts, side, at = edge_pixels(mask, p)
-    e = np.roll(p, -1, 0) - p
-    ang = np.arctan2(e[:, 1], e[:, 0])
-    turn = np.abs(ndimage.gaussian_filter1d(np.angle(np.exp(1j * (np.roll(ang, -1) - ang))), 0.5 / h, mode="wrap"))
-    start = int(np.argmax(turn))
-    order = np.argsort(at, kind="stable")
-    pts, side, at = np.ascontiguousarray(pts[order]), side[order], at[order]
+    pts, side, at = edge_pixels(np.ascontiguousarray(mask, dtype=bool), p)
+    start = sharpest_bend(p, gaussian_weights(0.5 / h))
     t0s, lengths, ok, normal, offset = digital_runs(pts, side, at, n, start, max(int(MIN_RUN / h), 2), ORIENTATIONS)
     verts = run_polygon(p, pts, side, t0s, lengths, ok, normal, offset, MIN_CORNER_SINE, MAX_CORNER_SHIFT,
                         CORNER_TOLERANCE)

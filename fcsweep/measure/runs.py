@@ -15,7 +15,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-__all__ = ["digital_runs", "count_outside", "edge_pixels", "run_polygon", "radius_fit", "ORIENTATIONS"]
+__all__ = ["digital_runs", "count_outside", "edge_pixels", "run_polygon", "radius_fit", "sharpest_bend",
+           "blurred_mask", "mixed_pixels", "pieces_and_fit", "resample", "ORIENTATIONS"]
 
 #: Directions (over 180 degrees) on which a run's boundary pixels are tested for a separating line.
 ORIENTATIONS = 180
@@ -238,10 +239,10 @@ def count_outside(px, py, inside, poly):
 def edge_pixels(mask, p):
     """The boundary pixel centres of a cell, attached to the outline: ``(pts, side, at)``.
 
-    ``pts`` (N, 2) holds the centres of the mask's pixels with a 4-neighbour outside it (row
-    by row, ``side`` True), then those outside it with a 4-neighbour in it (``side`` False),
-    pixel ``(r, c)`` at ``(c, r)``; ``at`` is the index of the nearest point of ``p`` (K, 2),
-    the lowest index on a tie."""
+    ``pts`` (N, 2) holds the centres of the mask's pixels with a 4-neighbour outside it
+    (``side`` True) and of those outside it with a 4-neighbour in it (``side`` False), pixel
+    ``(r, c)`` at ``(c, r)``; ``at`` is the index of the nearest point of ``p`` (K, 2), the
+    lowest index on a tie.  Sorted by ``at`` (stable: inside before outside, row by row)."""
     H, W = mask.shape
     # nearest sample of every pixel centre within 3 px of one (pixel (r, c) of the mask at [r + 1, c + 1])
     best = np.full((H + 2, W + 2), np.inf)
@@ -299,7 +300,17 @@ def edge_pixels(mask, p):
                 k_in += 1
             else:
                 k_out += 1
-    return pts, side, at
+    # stable counting sort by the attached sample
+    first = np.zeros(p.shape[0] + 1, np.int64)
+    for k in range(at.size):
+        first[at[k] + 1] += 1
+    for s in range(p.shape[0]):
+        first[s + 1] += first[s]
+    order = np.empty(at.size, np.int64)
+    for k in range(at.size):
+        order[first[at[k]]] = k
+        first[at[k]] += 1
+    return pts[order], side[order], at[order]
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -426,7 +437,14 @@ def radius_fit(x, y, modes, star_tolerance, ct, st):
             design[i, 2 * k - 1] = np.cos(k * phi[i]) * w
             design[i, 2 * k] = np.sin(k * phi[i]) * w
         rhs[i] = r[i] * w
-    coef = np.linalg.lstsq(design, rhs)[0]
+    # normal equations where well conditioned (the design's columns are near-orthogonal on a cell's
+    # outline), the SVD least squares where not
+    gram = design.T @ design
+    ev = np.linalg.eigvalsh(gram)
+    if ev[0] > ev[-1] * 1e-8:
+        coef = np.linalg.solve(gram, design.T @ rhs)
+    else:
+        coef = np.linalg.lstsq(design, rhs)[0]
     T = ct.shape[1]
     h = 2 * np.pi / T
     perim = 0.0
@@ -525,3 +543,103 @@ def pieces_and_fit(mask, disc):
         if fits:
             break
     return pieces > 1, fits
+
+
+@numba.njit(cache=True, error_model="numpy")
+def sharpest_bend(p, weights):
+    """Index of the sample of the closed outline ``p`` (K, 2) where its turn per sample, smoothed
+    by the symmetric ``weights`` (2 r + 1, cyclic), is largest in magnitude (the first on a tie)."""
+    n = p.shape[0]
+    ang = np.empty(n)
+    for i in range(n):
+        j = (i + 1) % n
+        ang[i] = np.arctan2(p[j, 1] - p[i, 1], p[j, 0] - p[i, 0])
+    turn = np.empty(n)
+    for i in range(n):
+        d = ang[(i + 1) % n] - ang[i]
+        turn[i] = np.arctan2(np.sin(d), np.cos(d))
+    r = weights.size // 2
+    best = -1.0
+    at = 0
+    for i in range(n):
+        v = turn[i] * weights[r]
+        for j in range(r, 0, -1):
+            v += (turn[(i - j) % n] + turn[(i + j) % n]) * weights[r + j]
+        if abs(v) > best:
+            best = abs(v)
+            at = i
+    return at
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _blur_pass(src, dst, weights, axis):
+    """One axis of a separable symmetric correlation, zero outside the array (the operation order
+    of ``scipy.ndimage.correlate1d`` with a symmetric kernel)."""
+    r = weights.size // 2
+    H, W = src.shape
+    L = H if axis == 0 else W
+    M = W if axis == 0 else H
+    for m in range(M):
+        for i in range(L):
+            v = (src[i, m] if axis == 0 else src[m, i]) * weights[r]
+            for j in range(r, 0, -1):
+                a = 0.0
+                b = 0.0
+                if i - j >= 0:
+                    a = src[i - j, m] if axis == 0 else src[m, i - j]
+                if i + j < L:
+                    b = src[i + j, m] if axis == 0 else src[m, i + j]
+                v += (a + b) * weights[r - j]
+            if axis == 0:
+                dst[i, m] = v
+            else:
+                dst[m, i] = v
+
+
+@numba.njit(cache=True, error_model="numpy")
+def blurred_mask(mask, pad, weights):
+    """The mask padded by ``pad`` zeros on each side and blurred with the separable symmetric
+    kernel ``weights`` along rows, then columns (zero outside): ``scipy.ndimage.gaussian_filter``
+    of the padded mask, ``mode="constant"``, when ``weights`` is its kernel."""
+    H, W = mask.shape
+    z = np.zeros((H + 2 * pad, W + 2 * pad))
+    for r in range(H):
+        for c in range(W):
+            if mask[r, c]:
+                z[r + pad, c + pad] = 1.0
+    tmp = np.empty_like(z)
+    _blur_pass(z, tmp, weights, 0)
+    _blur_pass(tmp, z, weights, 1)
+    return z
+
+
+@numba.njit(cache=True, error_model="numpy")
+def resample(line, step):
+    """The closed ``line`` (K, 2) resampled at equal arc-length steps of at most ``step`` (at
+    least 8 points, from its first point; linear interpolation as ``np.interp``): ``(p, h)``,
+    h the step."""
+    K = line.shape[0]
+    s = np.empty(K + 1)
+    s[0] = 0.0
+    acc = 0.0
+    for i in range(K):
+        j = (i + 1) % K
+        acc += np.hypot(line[j, 0] - line[i, 0], line[j, 1] - line[i, 1])
+        s[i + 1] = acc
+    total = s[K]
+    n = max(int(np.ceil(total / step)), 8)
+    h = total / n
+    p = np.empty((n, 2))
+    j = 0
+    for i in range(n):
+        t = i * h
+        while j + 1 < K and s[j + 1] <= t:
+            j += 1
+        if s[j] == t:
+            p[i, 0], p[i, 1] = line[j, 0], line[j, 1]
+            continue
+        k = (j + 1) % K
+        for d in range(2):
+            slope = (line[k, d] - line[j, d]) / (s[j + 1] - s[j])
+            p[i, d] = slope * (t - s[j]) + line[j, d]
+    return p, h
