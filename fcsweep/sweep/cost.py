@@ -16,9 +16,10 @@ arrays leave the caches (N = 99 856 and 10^6 ran at the same rate), and a start 
 cells takes minutes.
 
 Why the disordered start: the step costs what the contacts cost, and in a large run what
-the scattering of neighbours in memory costs.  The former probe timed the step just off
-the lattice, where at area fraction 0.8 the cells do not yet touch; the paper's Fig. 1c
-scene (N = 10^4) then ran 1.9x longer than its dry run said.  Measured in one process
+the scattering of neighbours in memory costs.  Just off the lattice (the "lattice probe"
+column below), at area fraction 0.8, the cells do not yet touch and the step is cheaper
+than in the run: the paper's Fig. 1c scene (N = 10^4) ran 1.9x longer than such a probe
+said.  Measured in one process
 (``benchmarks/cost_probe.py``, results in ``benchmarks/results/cost_probe.txt``; us per
 cell-step, the runs after 50 time units from the lattice / from a disordered start):
 
@@ -34,7 +35,7 @@ N = 10^4, 0.95, eta 0.1, v0 0.01 (solid)      1.41           0.92  0.90, 1.42
 
 So the estimate is the cost of a state that flows, or that started disordered; a solid
 that never leaves its lattice runs up to 1.6x faster than estimated (the last rows),
-where the former probe put a flowing run up to 2.4x under.  Runs that start disordered
+where a lattice probe puts a flowing run up to 2.4x under.  Runs that start disordered
 are timed on their own kind of start.
 
 Both timing choices are what made the estimate stable on a loaded machine: the
