@@ -244,13 +244,13 @@ def edge_pixels(mask, p):
     ``(r, c)`` at ``(c, r)``; ``at`` is the index of the nearest point of ``p`` (K, 2), the
     lowest index on a tie.  Sorted by ``at`` (stable: inside before outside, row by row)."""
     H, W = mask.shape
-    # nearest sample of every pixel centre within 3 px of one (pixel (r, c) of the mask at [r + 1, c + 1])
+    # nearest sample of every pixel centre within 2 px of one (pixel (r, c) of the mask at [r + 1, c + 1])
     best = np.full((H + 2, W + 2), np.inf)
     idx = np.full((H + 2, W + 2), -1, np.int64)
     for s in range(p.shape[0]):
         x, y = p[s, 0], p[s, 1]
-        c0, c1 = max(int(np.ceil(x - 3.0)), -1), min(int(np.floor(x + 3.0)), W)
-        r0, r1 = max(int(np.ceil(y - 3.0)), -1), min(int(np.floor(y + 3.0)), H)
+        c0, c1 = max(int(np.ceil(x - 2.0)), -1), min(int(np.floor(x + 2.0)), W)
+        r0, r1 = max(int(np.ceil(y - 2.0)), -1), min(int(np.floor(y + 2.0)), H)
         for r in range(r0, r1 + 1):
             for c in range(c0, c1 + 1):
                 d = (c - x) ** 2 + (r - y) ** 2
@@ -289,7 +289,7 @@ def edge_pixels(mask, p):
             k = k_in if kd == 1 else k_out
             pts[k, 0], pts[k, 1], side[k] = c, r, kd == 1
             s = idx[r + 1, c + 1]
-            if s < 0 or best[r + 1, c + 1] > 9.0:  # no sample within 3 px: all of them
+            if s < 0 or best[r + 1, c + 1] > 4.0:  # no sample within 2 px: all of them
                 bd = np.inf
                 for q in range(p.shape[0]):
                     d = (c - p[q, 0]) ** 2 + (r - p[q, 1]) ** 2
@@ -433,9 +433,12 @@ def radius_fit(x, y, modes, star_tolerance, ct, st):
     for i in range(K):
         w = np.sqrt(0.5 * (seg[i] + seg[i - 1]))
         design[i, 0] = w
-        for k in range(1, modes + 1):
-            design[i, 2 * k - 1] = np.cos(k * phi[i]) * w
-            design[i, 2 * k] = np.sin(k * phi[i]) * w
+        c1, s1 = np.cos(phi[i]), np.sin(phi[i])
+        ck, sk = c1, s1
+        for k in range(1, modes + 1):  # cos k phi, sin k phi by the angle-addition recurrence
+            design[i, 2 * k - 1] = ck * w
+            design[i, 2 * k] = sk * w
+            ck, sk = ck * c1 - sk * s1, sk * c1 + ck * s1
         rhs[i] = r[i] * w
     # normal equations where well conditioned (the design's columns are near-orthogonal on a cell's
     # outline), the SVD least squares where not
