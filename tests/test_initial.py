@@ -97,7 +97,8 @@ def test_a_wrong_initial_names_the_key_and_the_choices():
     with pytest.raises(ConfigError, match=r"model.initial = 'hex' is not allowed; choose one of "
                                           r"\['lattice', 'disordered', 'coexistence'\]"):
         parse_config(CONFIG.format(extra="  initial: hex"))
-    with pytest.raises(ValueError, match="initial must be one of"):
+    with pytest.raises(ValueError, match=r"^initial = 'hex' is not allowed; choose one of "
+                                         r"\['lattice', 'disordered', 'coexistence'\]$"):  # the config's words
         Simulation.create(16, seed=1, eta=0.1, v0=0.0, initial="hex")
     # the explicit constructors record the start they make
     assert Simulation.from_lattice(16, seed=1, eta=0.1, v0=0.0, initial="disordered").params.initial == "lattice"
