@@ -13,8 +13,8 @@ from scipy.spatial import cKDTree
 
 from fcsweep.measure.cells import FIT_POINTS, MIN_INSCRIBED_RADIUS_PX, fit_radius
 from fcsweep.measure.perimeter import gaussian_weights, padded
-from fcsweep.measure.runs import (blurred_mask, count_outside, edge_pixels, mixed_pixels, pieces_and_fit, resample,
-                                  sharpest_bend)
+from fcsweep.measure.pixels import blurred_mask, edge_pixels, mixed_pixels, pieces_and_fit, resample
+from fcsweep.measure.runs import count_outside, sharpest_bend
 
 
 def _masks(seed, n=12):

@@ -44,7 +44,7 @@ from scipy import ndimage
 
 from fcsweep.measure.perimeter import (blurred_line, blurred_perimeter, closes, contour_lines, edge_band, mismatch,
                                       padded, polygon_perimeter)
-from fcsweep.measure.runs import pieces_and_fit, radius_fit
+from fcsweep.measure.pixels import pieces_and_fit, radius_fit
 
 __all__ = ["measure_cells", "CELL_FIELDS", "fit_radius", "STAR_TOLERANCE", "FIT_POINTS", "SHAPE_FLAGS",
            "ESTIMATORS", "MIN_AREA_PX", "MIN_INSCRIBED_RADIUS_PX", "Q_ERR_COEF", "PARAMETER_COST",

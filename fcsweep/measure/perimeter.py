@@ -32,8 +32,8 @@ import contourpy
 import numpy as np
 from scipy import ndimage
 
-from fcsweep.measure.runs import (ORIENTATIONS, blurred_mask, count_outside, digital_runs, edge_pixels, mixed_pixels,
-                                  resample, run_polygon, sharpest_bend)
+from fcsweep.measure.pixels import blurred_mask, edge_pixels, mixed_pixels, resample
+from fcsweep.measure.runs import ORIENTATIONS, count_outside, digital_runs, run_polygon, sharpest_bend
 
 __all__ = ["blurred_line", "contour_lines", "polygon_perimeter", "blurred_perimeter", "closed_length", "closes",
            "padded", "gaussian_weights", "mismatch", "edge_band", "BLUR", "STEP",
