@@ -61,7 +61,7 @@ def bench(config, compare, steps, warm, threads, workers, as_json):
 
     cfg = load(config, to_run=True)
     log = None if as_json else say
-    compile_kernels(log, parallel=True)
+    compile_kernels(log)
     rows = bench_sweep(cfg, steps=steps, warm=warm, quadratures=list(compare) or None, threads=threads, log=log)
     report = bench_report(cfg, rows, threads=threads, workers=workers)
     if as_json:
@@ -144,7 +144,7 @@ def simulate(config, output, workers, executor, scheduler, task_index, retry_fai
     if executor != "dask" and _any_to_compute(cfg, specs, force):  # Dask workers compile on their hosts
         from fcsweep.sweep.warmup import compile_kernels
 
-        compile_kernels(None if quiet else say, parallel=True)
+        compile_kernels(None if quiet else say)
     progress = Progress(len(specs), log_every=log_every, enabled=not quiet)
     again = " ".join(shlex.quote(a) for a in sys.argv[1:]) or "simulate"
     code = simulate_runs(cfg, specs, options, progress=progress, say=err_line, resume=f"fcsweep {again}",
@@ -183,14 +183,13 @@ def list_runs(config, output, count, as_json):
 
 
 @click.command("compile")
-@click.option("--serial", is_flag=True, help="Compile in this process only (default: two processes).")
-def compile_cmd(serial):
+def compile_cmd():
     """Compile the numba kernels now (once per fcsweep version; `simulate` does it
     otherwise on first use) and say where they are cached.  Shows a progress bar with an
     estimate on a terminal, one line per stage otherwise."""
     from fcsweep.sweep.warmup import cache_dir, compile_kernels, kernels_cached
 
     was = kernels_cached()
-    seconds = compile_kernels(say, parallel=not serial)
+    seconds = compile_kernels(say)
     state = "already compiled; loaded" if was else "compiled"
     click.echo(f"kernels {state} in {seconds:.1f} s; cache {cache_dir()}")
