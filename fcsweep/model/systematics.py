@@ -8,17 +8,17 @@ from the paired measurements of docs/speed_vs_error.md (a fluid state at ``<q>``
 N = 144, 8 seeds) and the binary-against-arc cut of the paper campaign (v0 = 0.06,
 eta = 0.02-0.06, N = 1024, ``<q>`` 3.81-3.86: binary reads 0.025-0.073 higher):
 
-=====================================  ===================  ==========================
-setting                                <q> offset           relative offset of D
-=====================================  ===================  ==========================
-arc, any K >= 24, dt <= 0.005          0                    0
-binary, K >= 80, dt <= 0.005           0 .. +0.005          -0.04 .. +0.04
-binary, K < 80, dt <= 0.005            +0.022 .. +0.073     -0.04 .. +0.04
-linear, dt <= 0.005                    +0.093 .. +0.105     0 .. +0.13
-dt in (0.005, 0.01]                    adds 0 .. +0.010     adds -0.17 .. 0
-dt in (0.01, 0.02]                     adds +0.010 .. +0.037  adds -0.52 .. 0
-dt above 0.02                          not measured (inf)   not measured (inf)
-=====================================  ===================  ==========================
+=====================================  ======================  ==========================
+setting                                <q> offset              relative offset of D
+=====================================  ======================  ==========================
+arc, any K >= 24, dt <= 0.005          0                       0
+binary, K >= 80, dt <= 0.005           0 .. +0.005             -0.04 .. +0.04
+binary, K < 80, dt <= 0.005            +0.022 .. +0.073        -0.04 .. +0.04
+linear, dt <= 0.005                    +0.093 .. +0.105        0 .. +0.13
+dt in (0.005, 0.01]                    adds 0 .. +0.010        adds -0.17 .. 0
+dt in (0.01, 0.02]                     adds +0.010 .. +0.037   adds -0.52 .. 0
+dt above 0.02                          not measured (inf)      not measured (inf)
+=====================================  ======================  ==========================
 
 The linear rule's offset was measured in the one fluid state only.  The phase rule
 (:func:`fcsweep.analysis.phase.phase_label`) reads these ranges from each run's scalars
