@@ -57,30 +57,8 @@ def _gaps(pts, side, at, k0, t, n, length, nx, ny, gap, sign, offset):
     """Margin, outward sign and offset of the separating line at each direction (nx, ny) for the
     pixels from index k0 on whose relative sample is <= length from sample t; gap <= 0 where none
     separates."""
-    m = nx.size
-    N = pts.shape[0]
-    for a in range(m):
-        hi_in = -_BIG
-        lo_in = _BIG
-        hi_out = -_BIG
-        lo_out = _BIG
-        for j in range(N):
-            k = (k0 + j) % N
-            if (at[k] - t) % n > length:
-                break
-            v = pts[k, 0] * nx[a] + pts[k, 1] * ny[a]
-            if side[k]:
-                hi_in = max(hi_in, v)
-                lo_in = min(lo_in, v)
-            else:
-                hi_out = max(hi_out, v)
-                lo_out = min(lo_out, v)
-        g1 = lo_out - hi_in
-        g2 = lo_in - hi_out
-        if g1 >= g2:
-            gap[a], sign[a], offset[a] = g1, 1.0, 0.5 * (lo_out + hi_in)
-        else:
-            gap[a], sign[a], offset[a] = g2, -1.0, -0.5 * (lo_in + hi_out)
+    for a in range(nx.size):
+        _gap_at(pts, side, at, k0, t, n, length, nx[a], ny[a], gap, sign, offset, a)
 
 
 @numba.njit(cache=True, error_model="numpy")
