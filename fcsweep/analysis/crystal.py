@@ -69,13 +69,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from emcee.autocorr import auto_window, function_1d
-from scipy.special import ndtr
 
 from fcsweep.analysis.diffusion import D_EFF_SOLID
 from fcsweep.analysis.order import psi6
-from fcsweep.analysis.phase import MIN_CONFIDENCE
-from fcsweep.analysis.stats import C_WINDOW, time_average
+from fcsweep.analysis.phase import MIN_CONFIDENCE, p_above
+from fcsweep.analysis.stats import time_average, windowed_time
 from fcsweep.analysis.voronoi import voronoi_neighbors
 
 __all__ = ["CRYSTAL_COHERENCE", "FLUID_LEVEL", "FILLED_LEVEL", "SETTLE_TIME", "MIN_FRAMES", "MIN_END_FRAMES",
@@ -230,15 +228,8 @@ def crystal_trend(t, f) -> CrystalTrend:
 
 def _line_residual_time(r: np.ndarray) -> float:
     """Integrated autocorrelation time of residuals about a fitted line (module docstring)."""
-    rho = function_1d(r)
-    taus = 2.0 * np.cumsum(rho) - 1.0
-    M = int(auto_window(taus, C_WINDOW))
-    return float(min(max(taus[M] / max(1.0 - 4.0 * M / r.size, 0.25), 1.0), r.size))
-
-
-def _p_above(x: float, threshold: float, err: float) -> float:
-    """P(x - threshold > 0) for a Gaussian difference of error ``err`` (0: a step)."""
-    return float(ndtr((x - threshold) / err)) if err > 0 else float(x > threshold)
+    tau, M = windowed_time(r)
+    return float(min(max(tau / max(1.0 - 4.0 * M / r.size, 0.25), 1.0), r.size))
 
 
 def solid_speed(height: float, n_rows: int, d_solid: float = D_EFF_SOLID) -> float:
@@ -313,12 +304,12 @@ def phase_coexistence(t, f, box, N: int, *, min_confidence: float = MIN_CONFIDEN
                                 f"{tk.size} frames after the first {settle_time:g} time units; "
                                 f"{MIN_END_FRAMES} needed", "too_few_frames")
     last = time_average(fk[-max(4, fk.size // 4):], equilibrate=False)
-    p_gone = _p_above(FLUID_LEVEL, last.mean, last.err)
+    p_gone = p_above(FLUID_LEVEL, last.err, last.mean)
     end = f"crystal fraction {last.mean:.3f} ± {last.err:.1g} over the last quarter"
     if p_gone >= min_confidence:
         return CoexistenceLabel(COEXISTENCE_NOT_SOLID, p_gone,
                                 f"the crystal melted: {end}, below the fluid's level {FLUID_LEVEL:g}", "crystal_melted")
-    p_filled = _p_above(last.mean, FILLED_LEVEL, last.err)
+    p_filled = p_above(last.mean, last.err, FILLED_LEVEL)
     if p_filled >= min_confidence:
         return CoexistenceLabel(COEXISTENCE_SOLID, p_filled,
                                 f"solid: the crystal filled the box: {end}, above {FILLED_LEVEL:g}", "crystal_filled")
@@ -332,10 +323,10 @@ def phase_coexistence(t, f, box, N: int, *, min_confidence: float = MIN_CONFIDEN
         return CoexistenceLabel(COEXISTENCE_UNDETERMINED, float("nan"),
                                 f"{trend.n_eff:.1f} effective samples of the slope ({MIN_SLOPE_SAMPLES:g} "
                                 "needed): a longer run decides", "no_error", v, v_err)
-    p_solid = float(ndtr((v + v_star) / v_err)) if v_err > 0 else float(v > -v_star)
+    p_solid = p_above(v, v_err, -v_star)
     speed = f"interface speed v = {v:.2g} ± {v_err:.1g} R0/τ against v* = {v_star:.2g}"
     if p_solid >= min_confidence:
-        p_grow = float(ndtr(v / v_err)) if v_err > 0 else float(v > 0)
+        p_grow = p_above(v, v_err, 0.0)
         grows = p_grow >= min_confidence
         return CoexistenceLabel(COEXISTENCE_SOLID, p_solid,
                                 f"solid: the crystal {'grows' if grows else 'stays'} ({speed}, "

@@ -73,7 +73,7 @@ class TimeAverage:
         return bool(np.isfinite(self.err) and self.n_eff >= MIN_EFFECTIVE_SAMPLES)
 
 
-def _windowed_time(x, c: float) -> tuple[float, int]:
+def windowed_time(x, c: float = C_WINDOW) -> tuple[float, int]:
     """Sokal's windowed estimate of tau and the window M (no bias correction)."""
     rho = function_1d(x)
     taus = 2.0 * np.cumsum(rho) - 1.0
@@ -104,7 +104,7 @@ def integrated_time(x, c: float = C_WINDOW) -> float:
         return float("nan")
     if not np.any(x != x[0]):
         return 1.0
-    tau, M = _windowed_time(x, c)
+    tau, M = windowed_time(x, c)
     tau /= max(1.0 - 2.0 * M / n, 0.5)
     return float(min(max(tau, 1.0), n))
 
